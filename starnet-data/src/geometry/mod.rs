@@ -1,0 +1,10 @@
+//! Box geometry in the LiDAR frame: the [`Box3d`] type, angle wrapping, rotated BEV and 3D
+//! IoU by convex polygon clipping, a pairwise IoU matrix, and points-in-box tests.
+
+mod box3d;
+mod iou;
+mod polygon;
+
+pub use box3d::{Box3d, wrap_angle};
+pub use iou::{IouKind, iou_3d, iou_bev, iou_matrix};
+pub use polygon::{convex_intersection_area, polygon_area};

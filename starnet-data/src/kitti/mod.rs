@@ -1,0 +1,21 @@
+//! The KITTI 3D object formats: velodyne scans, `label_2` ground truth and result files,
+//! calibration, `ImageSets` splits, conversions between the LiDAR and camera frames, and a
+//! dataset type that lists and loads frames. Writers reproduce KITTI's exact bytes.
+//! Format facts: `shared/reference/kitti-format.md`.
+
+mod calib;
+mod camera;
+mod dataset;
+mod label;
+mod split;
+mod velodyne;
+
+pub use calib::{Calib, format_c_exp};
+pub use camera::{ImageSize, observation_angle};
+pub use dataset::{Frame, KittiDataset};
+pub use label::{
+    CameraBox, Difficulty, KittiObject, ObjectClass, format_labels, parse_labels, read_labels, write_labels,
+    write_results,
+};
+pub use split::{parse_split, read_split, write_split};
+pub use velodyne::{decode_points, encode_points, read_points, write_points};

@@ -1,0 +1,48 @@
+//! StarNet data: box geometry, KITTI I/O, and (in later modules) the LiDAR simulator,
+//! center sampling, neighbourhoods and augmentation. No deep-learning dependency: every
+//! function here is plain Rust on slices, so data-loader threads can run it.
+//!
+//! # Frames
+//!
+//! * **LiDAR frame** (everything in this workspace unless a name says otherwise): metres,
+//!   x forward, y left, z up, sensor at the origin. On KITTI the ground lies at z ≈ −1.73.
+//! * **Camera-rect frame** (KITTI `label_2` files): x right, y down, z forward, the rectified
+//!   camera 0. Functions that cross frames carry both names, e.g.
+//!   [`kitti::Calib::rect_to_lidar`].
+//!
+//! # Box layout
+//!
+//! A 3D box is `[x, y, z, dx, dy, dz, heading]` in the LiDAR frame ([`Box3d`]):
+//! (x, y, z) is the box **centre**, `dx` the extent along the heading (length), `dy` the width,
+//! `dz` the height; `heading` is counter-clockwise about +z from +x, wrapped to [−π, π).
+//!
+//! ```text
+//!              heading →            corner order of Box3d::corners_bev()
+//!        3 ──────────── 0           (counter-clockwise seen from above;
+//!        │      y       │            corners_3d() repeats them at the bottom
+//!        │      ↑       │            (0..4) and at the top (4..8))
+//!        │      └─→ x   │
+//!        2 ──────────── 1
+//! ```
+//!
+//! KITTI conversion ([`kitti::Calib::label_to_box`]): centre = rect→LiDAR(x, y − h/2, z),
+//! (dx, dy, dz) = (l, w, h), heading = −(ry + π/2).
+//!
+//! # Shape letters
+//!
+//! Docs and comments across the workspace use: `B` frames in a batch, `C` centers per frame,
+//! `P` points per center, `F` per-point input features, `A` anchors per center, `K` classes,
+//! `N` points in a cloud.
+
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod geometry;
+pub mod io;
+pub mod kitti;
+
+pub use error::{DataError, Result};
+pub use geometry::{Box3d, wrap_angle};
+
+/// A LiDAR point: `[x, y, z, reflectance]`, LiDAR frame, reflectance in [0, 1].
+pub type Point = [f32; 4];

@@ -1,0 +1,11 @@
+//! StarNet training, evaluation, export and visualisation: the library behind the `starnet`
+//! binary, so other front-ends and tests can call every command as a function.
+//! Frames, box layout and shape letters are those of [`starnet_data`]'s crate docs.
+
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod inspect;
+pub mod render;
+
+pub use error::{Result, TrainError};

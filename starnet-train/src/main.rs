@@ -1,0 +1,104 @@
+//! `starnet`: train, evaluate, export and inspect StarNet detectors. Parses arguments and
+//! calls the `starnet_train` library; nothing else happens here.
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use starnet_data::kitti::KittiDataset;
+use starnet_train::inspect::inspect_frame;
+use starnet_train::render::{BevOptions, render_frame};
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(
+    name = "starnet",
+    version,
+    about = "StarNet point-cloud 3D object detection: data, training, evaluation, export"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Print what a frame holds: point count, and per label its class, LiDAR-frame box
+    /// [x y z dx dy dz heading], difficulty and the number of points inside the box.
+    Inspect {
+        /// KITTI root (the folder holding `training/`).
+        #[arg(long)]
+        data: PathBuf,
+        /// Frame id, e.g. 000001.
+        #[arg(long)]
+        frame: String,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Draw a bird's-eye-view PNG of a frame: points shaded by height, ground-truth boxes
+    /// (green) and, with --results, predicted boxes (orange), each with a heading mark.
+    Render {
+        /// KITTI root (the folder holding `training/`).
+        #[arg(long)]
+        data: PathBuf,
+        /// Frame id, e.g. 000001.
+        #[arg(long)]
+        frame: String,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+        /// A folder of KITTI result files (`{id}.txt`, 16 fields) to draw as predictions.
+        #[arg(long)]
+        results: Option<PathBuf>,
+        /// How far the view reaches in metres: forward to `range` (and 0.55 x range to each
+        /// side), or with --full to `range` in every direction.
+        #[arg(long, default_value_t = 80.0)]
+        range: f32,
+        /// Show all 360 degrees around the sensor, not only the camera's side.
+        #[arg(long)]
+        full: bool,
+        /// Pixels per metre.
+        #[arg(long, default_value_t = 10.0)]
+        px_per_m: f32,
+    },
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().command {
+        Command::Inspect { data, frame, json } => {
+            let ds = KittiDataset::open(&data, None)?;
+            let report = inspect_frame(&ds.load(&frame)?);
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                print!("{report}");
+            }
+        }
+        Command::Render {
+            data,
+            frame,
+            out,
+            results,
+            range,
+            full,
+            px_per_m,
+        } => {
+            anyhow::ensure!(range > 0.0 && px_per_m > 0.0, "--range and --px-per-m must be positive");
+            anyhow::ensure!(
+                range * px_per_m <= 8000.0,
+                "--range x --px-per-m must be at most 8000 (image side 16000 px)"
+            );
+            let ds = KittiDataset::open(&data, None)?;
+            let view = if full {
+                BevOptions::around(range, px_per_m)
+            } else {
+                BevOptions::front(range, px_per_m)
+            };
+            let canvas = render_frame(&ds, &frame, results.as_deref(), &view)?;
+            canvas
+                .save_png(&out)
+                .with_context(|| format!("writing {}", out.display()))?;
+            println!("wrote {} ({} x {} px)", out.display(), canvas.width(), canvas.height());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,268 @@
+//! `starnet render`: a bird's-eye view of a frame. Points shaded by height, ground-truth boxes
+//! in green and predictions in orange, each with a heading mark (a line from the centre to the
+//! front edge), range rings every 10 m, and a metric scale bar. x (forward) points up the
+//! image and y (left) to the left, so the picture is what a viewer above the car would see.
+
+use super::{Canvas, Rgb};
+use crate::Result;
+use starnet_data::kitti::{KittiDataset, ObjectClass, read_labels};
+use starnet_data::{Box3d, DataError, Point};
+use std::path::Path;
+
+/// Extent and resolution of a bird's-eye view (LiDAR-frame metres).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BevOptions {
+    /// Forward extent `[x_min, x_max]`: the bottom and top of the image.
+    pub x: [f32; 2],
+    /// Lateral extent `[y_min, y_max]`: the right and left of the image.
+    pub y: [f32; 2],
+    /// Pixels per metre.
+    pub px_per_m: f32,
+}
+
+impl BevOptions {
+    /// The camera's side of the car, as KITTI labels it: x ∈ [−0.1 r, r], y ∈ [−0.55 r, 0.55 r].
+    pub fn front(range_m: f32, px_per_m: f32) -> Self {
+        Self {
+            x: [-0.1 * range_m, range_m],
+            y: [-0.55 * range_m, 0.55 * range_m],
+            px_per_m,
+        }
+    }
+
+    /// All around the sensor: x, y ∈ [−r, r].
+    pub fn around(range_m: f32, px_per_m: f32) -> Self {
+        Self {
+            x: [-range_m, range_m],
+            y: [-range_m, range_m],
+            px_per_m,
+        }
+    }
+
+    /// Image `(width, height)` in pixels.
+    pub fn size(&self) -> (usize, usize) {
+        let px = |r: [f32; 2]| ((r[1] - r[0]) * self.px_per_m).round() as usize;
+        (px(self.y), px(self.x))
+    }
+
+    /// LiDAR (x, y) → pixel (column, row).
+    fn pixel(&self, x: f32, y: f32) -> [f32; 2] {
+        [(self.y[1] - y) * self.px_per_m, (self.x[1] - x) * self.px_per_m]
+    }
+
+    /// Distance from the sensor to the farthest corner of the view.
+    fn reach(&self) -> f32 {
+        let fx = self.x[0].abs().max(self.x[1].abs());
+        let fy = self.y[0].abs().max(self.y[1].abs());
+        fx.hypot(fy)
+    }
+}
+
+impl Default for BevOptions {
+    fn default() -> Self {
+        Self::front(80.0, 10.0)
+    }
+}
+
+/// A box to draw, with its class and (for predictions) score.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BevBox {
+    /// Object class, written beside the box.
+    pub class: ObjectClass,
+    /// The box in the LiDAR frame.
+    pub b: Box3d,
+    /// Detection score, written after the class.
+    pub score: Option<f32>,
+}
+
+const BACKGROUND: Rgb = [14, 16, 22];
+const RING: Rgb = [48, 52, 64];
+const GT: Rgb = [60, 230, 100];
+const PRED: Rgb = [255, 140, 20];
+const TEXT: Rgb = [230, 230, 230];
+
+/// Height colour: blue at the road (z ≈ −1.7 m), through green, to red at +1 m and above.
+fn height_colour(z: f32) -> Rgb {
+    const STOPS: [(f32, [f32; 3]); 5] = [
+        (-2.2, [40.0, 60.0, 200.0]),
+        (-1.4, [30.0, 170.0, 230.0]),
+        (-0.6, [60.0, 220.0, 120.0]),
+        (0.2, [240.0, 220.0, 60.0]),
+        (1.0, [240.0, 70.0, 50.0]),
+    ];
+    let z = z.clamp(STOPS[0].0, STOPS[4].0);
+    let i = STOPS.windows(2).position(|w| z <= w[1].0).unwrap_or(3);
+    let ((z0, c0), (z1, c1)) = (STOPS[i], STOPS[i + 1]);
+    let t = (z - z0) / (z1 - z0);
+    std::array::from_fn(|k| (c0[k] + t * (c1[k] - c0[k])) as u8)
+}
+
+fn draw_box(canvas: &mut Canvas, opts: &BevOptions, bx: &BevBox, colour: Rgb) {
+    let b = &bx.b;
+    let corners = b.corners_bev().map(|[x, y]| opts.pixel(x, y));
+    canvas.polygon(&corners, colour, 2);
+    let front = [
+        0.5 * (corners[0][0] + corners[1][0]),
+        0.5 * (corners[0][1] + corners[1][1]),
+    ];
+    canvas.line(opts.pixel(b.x, b.y), front, colour, 2);
+    let label = match bx.score {
+        Some(s) => format!("{} {s:.2}", bx.class),
+        None => bx.class.to_string(),
+    };
+    let top = corners
+        .iter()
+        .fold([f32::INFINITY; 2], |m, p| [m[0].min(p[0]), m[1].min(p[1])]);
+    canvas.text(top[0] as i64, top[1] as i64 - 10, &label, colour, 1);
+}
+
+fn draw_rings(canvas: &mut Canvas, opts: &BevOptions) {
+    let centre = opts.pixel(0.0, 0.0);
+    let mut r = 10.0;
+    while r <= opts.reach() {
+        let n = (r * opts.px_per_m * 0.8) as usize + 16;
+        let ring: Vec<[f32; 2]> = (0..n)
+            .map(|k| {
+                let a = k as f32 / n as f32 * std::f32::consts::TAU;
+                [
+                    centre[0] + r * opts.px_per_m * a.cos(),
+                    centre[1] + r * opts.px_per_m * a.sin(),
+                ]
+            })
+            .collect();
+        canvas.polygon(&ring, RING, 1);
+        r += 10.0;
+    }
+}
+
+/// Sensor arrow, legend and scale bar, drawn last so nothing covers them.
+fn draw_overlay(canvas: &mut Canvas, opts: &BevOptions, title: &str, has_preds: bool) {
+    let centre = opts.pixel(0.0, 0.0);
+    canvas.line([centre[0], centre[1] + 6.0], [centre[0], centre[1] - 8.0], TEXT, 2);
+    canvas.line(
+        [centre[0] - 4.0, centre[1] - 4.0],
+        [centre[0], centre[1] - 8.0],
+        TEXT,
+        2,
+    );
+    canvas.line(
+        [centre[0] + 4.0, centre[1] - 4.0],
+        [centre[0], centre[1] - 8.0],
+        TEXT,
+        2,
+    );
+    let title_w = 12 * title.chars().count() as i64;
+    canvas.fill_rect(0, 0, 20 + title_w.max(300), 52, BACKGROUND);
+    canvas.text(10, 10, title, TEXT, 2);
+    let w = canvas.text(10, 32, "GROUND TRUTH", GT, 2);
+    if has_preds {
+        canvas.text(10 + w + 16, 32, "PREDICTION", PRED, 2);
+    }
+    let (h, len) = (canvas.height() as f32, 10.0 * opts.px_per_m);
+    canvas.fill_rect(0, h as i64 - 34, len as i64 + 80, h as i64, BACKGROUND);
+    canvas.line([10.0, h - 20.0], [10.0 + len, h - 20.0], TEXT, 3);
+    canvas.line([10.0, h - 26.0], [10.0, h - 14.0], TEXT, 2);
+    canvas.line([10.0 + len, h - 26.0], [10.0 + len, h - 14.0], TEXT, 2);
+    canvas.text(10 + len as i64 + 8, h as i64 - 27, "10 m", TEXT, 2);
+}
+
+/// Draws a bird's-eye view.
+pub fn render_bev(points: &[Point], gt: &[BevBox], preds: &[BevBox], opts: &BevOptions, title: &str) -> Canvas {
+    let (w, h) = opts.size();
+    let mut canvas = Canvas::new(w, h, BACKGROUND);
+    draw_rings(&mut canvas, opts);
+    for p in points {
+        let [u, v] = opts.pixel(p[0], p[1]);
+        canvas.put(u as i64, v as i64, height_colour(p[2]));
+    }
+    for b in gt {
+        draw_box(&mut canvas, opts, b, GT);
+    }
+    for b in preds {
+        draw_box(&mut canvas, opts, b, PRED);
+    }
+    draw_overlay(&mut canvas, opts, title, !preds.is_empty());
+    canvas
+}
+
+/// Loads frame `id` of `dataset`, and the KITTI result file `results/{id}.txt` if a result
+/// directory is given, and draws them.
+pub fn render_frame(dataset: &KittiDataset, id: &str, results: Option<&Path>, opts: &BevOptions) -> Result<Canvas> {
+    let frame = dataset.load(id)?;
+    let gt: Vec<BevBox> = frame
+        .labelled_boxes()
+        .into_iter()
+        .map(|(o, b)| BevBox {
+            class: o.class,
+            b,
+            score: None,
+        })
+        .collect();
+    let preds = match results {
+        None => Vec::new(),
+        Some(dir) => {
+            let path = dir.join(format!("{id}.txt"));
+            if !path.is_file() {
+                return Err(DataError::MissingFile {
+                    frame: id.to_string(),
+                    path,
+                }
+                .into());
+            }
+            read_labels(&path)?
+                .iter()
+                .filter(|o| o.class != ObjectClass::DontCare)
+                .map(|o| BevBox {
+                    class: o.class,
+                    b: frame.calib.label_to_box(&o.cam),
+                    score: o.score,
+                })
+                .collect()
+        }
+    };
+    let title = format!("FRAME {id}  {} POINTS", frame.points.len());
+    Ok(render_bev(&frame.points, &gt, &preds, opts, &title))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn count(c: &Canvas, colour: Rgb) -> usize {
+        (0..c.height() as i64)
+            .flat_map(|y| (0..c.width() as i64).map(move |x| (x, y)))
+            .filter(|&(x, y)| c.get(x, y) == Some(colour))
+            .count()
+    }
+
+    #[test]
+    fn points_and_boxes_land_where_the_axes_say() {
+        let opts = BevOptions::around(20.0, 10.0);
+        // A point 10 m ahead and 5 m to the left: column (20 − 5)·10 = 150, row (20 − 10)·10 = 100.
+        let pts = [[10.0, 5.0, -1.7, 0.2]];
+        let b = BevBox {
+            class: ObjectClass::Car,
+            b: Box3d::new(-10.0, -10.0, -1.0, 4.0, 2.0, 1.5, 0.0),
+            score: None,
+        };
+        let p = BevBox { score: Some(0.5), ..b };
+        let c = render_bev(&pts, &[b], &[], &opts, "T");
+        assert_eq!((c.width(), c.height()), (400, 400));
+        assert_eq!(BevOptions::front(100.0, 2.0).size(), (220, 220));
+        assert_eq!(c.get(150, 100), Some(height_colour(-1.7)));
+        // The box spans x ∈ [−12, −8], y ∈ [−11, −9]: rows 280..320, columns 290..310.
+        assert_eq!(c.get(300, 280), Some(GT)); // front edge centre (heading mark end)
+        assert_eq!(c.get(290, 300), Some(GT));
+        assert_ne!(c.get(295, 305), Some(GT)); // inside, off the edges and the heading mark
+        assert_eq!(count(&c, PRED), 0);
+        let with_pred = render_bev(&pts, &[b], &[p], &opts, "T");
+        assert!(count(&with_pred, PRED) > 100);
+    }
+
+    #[test]
+    fn height_colour_is_monotone_in_red() {
+        assert!(height_colour(-2.0)[0] < height_colour(0.5)[0]);
+        assert_eq!(height_colour(-10.0), height_colour(-2.2));
+        assert_eq!(height_colour(10.0), [240, 70, 50]);
+    }
+}

@@ -1,0 +1,133 @@
+//! End-to-end tests of the `starnet` binary on the real KITTI sample
+//! (`shared/kitti-sample`, or `STARNET_KITTI_SAMPLE`).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn sample_root() -> PathBuf {
+    let root = std::env::var_os("STARNET_KITTI_SAMPLE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/kitti-sample"));
+    assert!(
+        root.join("training/velodyne/000000.bin").is_file(),
+        "KITTI sample not found at {}",
+        root.display()
+    );
+    root
+}
+
+fn starnet(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_starnet"))
+        .args(args)
+        .output()
+        .expect("run starnet")
+}
+
+fn stdout(o: &Output) -> String {
+    assert!(
+        o.status.success(),
+        "starnet failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8(o.stdout.clone()).unwrap()
+}
+
+fn png_pixels(path: &Path) -> (u32, u32, Vec<u8>) {
+    let mut reader = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()))
+        .read_info()
+        .unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    (info.width, info.height, buf)
+}
+
+#[test]
+fn inspect_reports_points_and_labels() {
+    let root = sample_root();
+    let out = stdout(&starnet(&[
+        "inspect",
+        "--data",
+        root.to_str().unwrap(),
+        "--frame",
+        "000000",
+        "--json",
+    ]));
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["num_points"], 115_384);
+    assert_eq!(v["objects"][0]["class"], "Pedestrian");
+    assert!(v["objects"][0]["num_points"].as_u64().unwrap() > 0);
+    let table = stdout(&starnet(&[
+        "inspect",
+        "--data",
+        root.to_str().unwrap(),
+        "--frame",
+        "000001",
+    ]));
+    assert!(table.starts_with("frame 000001: 120268 points"), "{table}");
+    assert_eq!(table.matches("DontCare").count(), 4, "{table}");
+}
+
+#[test]
+fn render_draws_ground_truth_and_predictions() {
+    let root = sample_root();
+    let dir = tempfile::tempdir().unwrap();
+    // Predictions: the frame's own labels written as a result file.
+    let results = dir.path().join("results");
+    std::fs::create_dir_all(&results).unwrap();
+    let labels = std::fs::read_to_string(root.join("training/label_2/000001.txt")).unwrap();
+    let with_scores: String = labels
+        .lines()
+        .filter(|l| !l.starts_with("DontCare"))
+        .map(|l| format!("{l} 0.90\n"))
+        .collect();
+    std::fs::write(results.join("000001.txt"), with_scores).unwrap();
+    let out = dir.path().join("bev.png");
+    let args = [
+        "render",
+        "--data",
+        root.to_str().unwrap(),
+        "--frame",
+        "000001",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let mut args = args.to_vec();
+    args.extend(["--results", results.to_str().unwrap(), "--range", "80"]);
+    stdout(&starnet(&args));
+    let (w, h, px) = png_pixels(&out);
+    assert_eq!((w, h), (880, 880));
+    let count = |c: [u8; 3]| px.chunks_exact(3).filter(|p| *p == c).count();
+    assert!(count([60, 230, 100]) > 100, "no ground-truth box drawn");
+    assert!(count([255, 140, 20]) > 100, "no prediction drawn");
+}
+
+#[test]
+fn bad_inputs_fail_with_the_file_named() {
+    let root = sample_root();
+    let dir = tempfile::tempdir().unwrap();
+    for sub in ["velodyne", "label_2", "calib"] {
+        std::fs::create_dir_all(dir.path().join("training").join(sub)).unwrap();
+    }
+    let t = |p: &str| dir.path().join("training").join(p);
+    let bin = std::fs::read(root.join("training/velodyne/000000.bin")).unwrap();
+    std::fs::write(t("velodyne/000000.bin"), &bin[..bin.len() - 5]).unwrap();
+    std::fs::copy(root.join("training/label_2/000000.txt"), t("label_2/000000.txt")).unwrap();
+    std::fs::copy(root.join("training/calib/000000.txt"), t("calib/000000.txt")).unwrap();
+    let data = dir.path().to_str().unwrap();
+
+    let o = starnet(&["inspect", "--data", data, "--frame", "000000"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("velodyne/000000.bin") && err.contains("not a multiple of 16"),
+        "{err}"
+    );
+
+    let o = starnet(&["inspect", "--data", data, "--frame", "000009"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("000009.bin does not exist"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
