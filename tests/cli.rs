@@ -131,3 +131,50 @@ fn bad_inputs_fail_with_the_file_named() {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+#[test]
+fn synth_writes_a_kitti_root_prints_stats_and_keeps_existing_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("sim");
+    let r = root.to_str().unwrap();
+    let out = stdout(&starnet(&["synth", "--out", r, "--frames", "3", "--seed", "4"]));
+    assert!(out.starts_with("wrote 3 frames"), "{out}");
+    for f in [
+        "training/velodyne/000002.bin",
+        "training/label_2/000002.txt",
+        "training/calib/000002.txt",
+        "training/label_360/000002.txt",
+        "ImageSets/train.txt",
+        "ImageSets/val.txt",
+        "synth.json",
+    ] {
+        assert!(root.join(f).is_file(), "{f} missing");
+    }
+    let stats = stdout(&starnet(&["synth", "--stats", r]));
+    assert!(stats.starts_with("3 frames\n"), "{stats}");
+    let points = stats
+        .lines()
+        .find(|l| l.starts_with("| points per frame, mean |"))
+        .expect("points row");
+    let generated: f64 = points.split('|').nth(2).unwrap().trim().parse().unwrap();
+    assert!((100_000.0..135_000.0).contains(&generated), "{points}");
+    // A second run into the same root must not mix frames of two runs.
+    let o = starnet(&["synth", "--out", r, "--frames", "2"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("already holds generated data"));
+    // The rendered 360° view draws the sidecar's objects too.
+    let png = dir.path().join("sim.png");
+    stdout(&starnet(&[
+        "render",
+        "--data",
+        r,
+        "--frame",
+        "000000",
+        "--out",
+        png.to_str().unwrap(),
+        "--full",
+        "--range",
+        "40",
+    ]));
+    assert_eq!(png_pixels(&png).0, 800);
+}

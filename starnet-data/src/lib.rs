@@ -40,6 +40,7 @@ pub mod error;
 pub mod geometry;
 pub mod io;
 pub mod kitti;
+pub mod sim;
 
 pub use error::{DataError, Result};
 pub use geometry::{Box3d, wrap_angle};

@@ -78,8 +78,9 @@ fn label_geometry_survives_the_lidar_round_trip() {
 
 #[test]
 fn projected_boxes_match_the_labelled_2d_boxes() {
-    // KITTI's 2D boxes were annotated in the image, not projected, so they agree with the
-    // projection of the 3D box only to within a few pixels for untruncated objects.
+    // KITTI's 2D boxes were annotated in the image, not projected. For the rigid objects of the
+    // sample (Car, Truck, Cyclist) the projection of the 3D box agrees to under 1 px; the
+    // pedestrian's and the Misc object's annotated boxes differ by 9.6 and 2.1 px.
     let ds = KittiDataset::open(sample_root(), None).unwrap();
     for id in ds.ids() {
         let frame = ds.load(id).unwrap();
@@ -90,8 +91,12 @@ fn projected_boxes_match_the_labelled_2d_boxes() {
                 .zip(obj.bbox)
                 .map(|(a, b)| (a - b).abs())
                 .fold(0f32, f32::max);
+            let bound = match obj.class {
+                ObjectClass::Car | ObjectClass::Truck | ObjectClass::Cyclist => 1.0,
+                _ => 12.0,
+            };
             assert!(
-                err < 25.0,
+                err < bound,
                 "frame {id} {}: projected {proj:?} labelled {:?}",
                 obj.class,
                 obj.bbox
@@ -109,4 +114,10 @@ fn fov_crop_keeps_a_kitti_sized_share() {
         let n = frame.calib.crop_to_fov(&frame.points, frame.image_size).len();
         assert!((13_000..=21_500).contains(&n), "frame {id}: {n} FOV points");
     }
+}
+
+#[test]
+fn embedded_calibration_is_frame_000000s_file() {
+    let real = std::fs::read_to_string(sample_root().join("training/calib/000000.txt")).unwrap();
+    assert_eq!(starnet_data::kitti::KITTI_000000_CALIB, real);
 }

@@ -7,5 +7,6 @@
 pub mod error;
 pub mod inspect;
 pub mod render;
+pub mod synth;
 
 pub use error::{Result, TrainError};

@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 use starnet_data::kitti::KittiDataset;
 use starnet_train::inspect::inspect_frame;
 use starnet_train::render::{BevOptions, render_frame};
+use starnet_train::synth::{SynthJob, run_stats, run_synth};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -53,12 +54,39 @@ enum Command {
         /// side), or with --full to `range` in every direction.
         #[arg(long, default_value_t = 80.0)]
         range: f32,
-        /// Show all 360 degrees around the sensor, not only the camera's side.
+        /// Show all 360 degrees around the sensor, not only the camera's side (with the
+        /// simulator's 360-degree labels, `label_360/`, when the frame has them).
         #[arg(long)]
         full: bool,
         /// Pixels per metre.
         #[arg(long, default_value_t = 10.0)]
         px_per_m: f32,
+    },
+    /// Generate the built-in dataset: a ray-cast 64-beam LiDAR over simulated streets, written in
+    /// the KITTI layout (velodyne, label_2, calib, ImageSets, plus a 360-degree label sidecar).
+    /// With --stats, print a generated set's statistics beside KITTI's instead.
+    Synth {
+        /// Output root (it gets `training/` and `ImageSets/`, or `sequences/`).
+        #[arg(long, required_unless_present = "stats", conflicts_with = "stats")]
+        out: Option<PathBuf>,
+        /// Independent scenes to generate.
+        #[arg(long, default_value_t = 100, conflicts_with = "sequences")]
+        frames: usize,
+        /// Generate this many sequences instead (with --length frames each, 10 Hz, poses).
+        #[arg(long, requires = "length")]
+        sequences: Option<usize>,
+        /// Frames per sequence.
+        #[arg(long)]
+        length: Option<usize>,
+        /// Random seed: the same seed writes the same bytes.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Share of scenes in the validation split.
+        #[arg(long, default_value_t = 0.5)]
+        val_fraction: f32,
+        /// Print the statistics of the generated set at ROOT.
+        #[arg(long, value_name = "ROOT")]
+        stats: Option<PathBuf>,
     },
 }
 
@@ -93,11 +121,34 @@ fn main() -> anyhow::Result<()> {
             } else {
                 BevOptions::front(range, px_per_m)
             };
-            let canvas = render_frame(&ds, &frame, results.as_deref(), &view)?;
+            let canvas = render_frame(&ds, &frame, results.as_deref(), full, &view)?;
             canvas
                 .save_png(&out)
                 .with_context(|| format!("writing {}", out.display()))?;
             println!("wrote {} ({} x {} px)", out.display(), canvas.width(), canvas.height());
+        }
+        Command::Synth {
+            out,
+            frames,
+            sequences,
+            length,
+            seed,
+            val_fraction,
+            stats,
+        } => {
+            if let Some(root) = stats {
+                return Ok(run_stats(&root)?);
+            }
+            anyhow::ensure!((0.0..=1.0).contains(&val_fraction), "--val-fraction must be in [0, 1]");
+            let job = match (sequences, length) {
+                (Some(sequences), Some(length)) => SynthJob::Sequences { sequences, length },
+                _ => SynthJob::Frames(frames),
+            };
+            let cfg = starnet_data::sim::SynthConfig {
+                val_fraction,
+                ..Default::default()
+            };
+            run_synth(&out.expect("clap requires --out without --stats"), job, seed, &cfg)?;
         }
     }
     Ok(())

@@ -75,11 +75,10 @@ impl Calib {
         }
     }
 
-    /// The 2D box `[left, top, right, bottom]` of a camera box in image 2: its eight corners
-    /// projected with P2, then clipped to `[0, W−1] × [0, H−1]` (OpenPCDet's
-    /// `boxes3d_kitti_camera_to_imageboxes`). `None` if a corner lies behind the camera, where
-    /// the pinhole projection is meaningless, or if the box misses the image.
-    pub fn image_bbox(&self, c: &CameraBox, size: ImageSize) -> Option<[f32; 4]> {
+    /// The unclipped 2D box `[left, top, right, bottom]` of a camera box in image 2: the
+    /// bounds of its eight corners projected with P2. `None` if a corner lies behind the
+    /// camera, where the pinhole projection is meaningless.
+    pub fn projected_bbox(&self, c: &CameraBox) -> Option<[f64; 4]> {
         let (s, co) = (c.ry as f64).sin_cos();
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for i in 0..8 {
@@ -99,19 +98,20 @@ impl Calib {
             lo = [lo[0].min(px), lo[1].min(py)];
             hi = [hi[0].max(px), hi[1].max(py)];
         }
+        Some([lo[0], lo[1], hi[0], hi[1]])
+    }
+
+    /// The 2D box `[left, top, right, bottom]` of a camera box in image 2: its eight corners
+    /// projected with P2, then clipped to `[0, W−1] × [0, H−1]` (OpenPCDet's
+    /// `boxes3d_kitti_camera_to_imageboxes`). `None` if a corner lies behind the camera or
+    /// the box misses the image.
+    pub fn image_bbox(&self, c: &CameraBox, size: ImageSize) -> Option<[f32; 4]> {
+        let [l, t, r, b] = self.projected_bbox(c)?;
         let (w1, h1) = ((size.width - 1) as f64, (size.height - 1) as f64);
-        if hi[0] < 0.0 || hi[1] < 0.0 || lo[0] > w1 || lo[1] > h1 {
+        if r < 0.0 || b < 0.0 || l > w1 || t > h1 {
             return None;
         }
-        Some(
-            [
-                lo[0].clamp(0.0, w1),
-                lo[1].clamp(0.0, h1),
-                hi[0].clamp(0.0, w1),
-                hi[1].clamp(0.0, h1),
-            ]
-            .map(|v| v as f32),
-        )
+        Some([l.clamp(0.0, w1), t.clamp(0.0, h1), r.clamp(0.0, w1), b.clamp(0.0, h1)].map(|v| v as f32))
     }
 
     /// Mask of the points that project into image 2 with non-negative depth (OpenPCDet's

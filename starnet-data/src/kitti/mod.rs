@@ -10,7 +10,7 @@ mod label;
 mod split;
 mod velodyne;
 
-pub use calib::{Calib, format_c_exp};
+pub use calib::{Calib, KITTI_000000_CALIB, format_c_exp};
 pub use camera::{ImageSize, observation_angle};
 pub use dataset::{Frame, KittiDataset};
 pub use label::{

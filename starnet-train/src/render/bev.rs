@@ -6,6 +6,7 @@
 use super::{Canvas, Rgb};
 use crate::Result;
 use starnet_data::kitti::{KittiDataset, ObjectClass, read_labels};
+use starnet_data::sim::read_sidecar;
 use starnet_data::{Box3d, DataError, Point};
 use std::path::Path;
 
@@ -186,18 +187,38 @@ pub fn render_bev(points: &[Point], gt: &[BevBox], preds: &[BevBox], opts: &BevO
 }
 
 /// Loads frame `id` of `dataset`, and the KITTI result file `results/{id}.txt` if a result
-/// directory is given, and draws them.
-pub fn render_frame(dataset: &KittiDataset, id: &str, results: Option<&Path>, opts: &BevOptions) -> Result<Canvas> {
+/// directory is given, and draws them. Ground truth comes from `label_2`, or, when `all_around`
+/// is set and the frame has one, from the simulator's 360° sidecar (`label_360`), which also
+/// holds the objects outside the camera's view.
+pub fn render_frame(
+    dataset: &KittiDataset,
+    id: &str,
+    results: Option<&Path>,
+    all_around: bool,
+    opts: &BevOptions,
+) -> Result<Canvas> {
     let frame = dataset.load(id)?;
-    let gt: Vec<BevBox> = frame
-        .labelled_boxes()
-        .into_iter()
-        .map(|(o, b)| BevBox {
-            class: o.class,
-            b,
-            score: None,
-        })
-        .collect();
+    let sidecar = dataset.path("label_360", id, "txt");
+    let gt: Vec<BevBox> = if all_around && sidecar.is_file() {
+        read_sidecar(&sidecar)?
+            .into_iter()
+            .map(|o| BevBox {
+                class: o.class,
+                b: o.b,
+                score: None,
+            })
+            .collect()
+    } else {
+        frame
+            .labelled_boxes()
+            .into_iter()
+            .map(|(o, b)| BevBox {
+                class: o.class,
+                b,
+                score: None,
+            })
+            .collect()
+    };
     let preds = match results {
         None => Vec::new(),
         Some(dir) => {

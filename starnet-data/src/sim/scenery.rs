@@ -1,0 +1,231 @@
+//! The unlabelled world along a street: sidewalk slabs (their edges are the kerbs), building
+//! façades with gaps, poles and signs, trees and bushes. Everything in the world frame.
+
+use super::street::Ground;
+use super::{Part, Shape};
+use crate::Box3d;
+use rand::Rng;
+
+/// Scenery solids with their reflectance, and the footprints objects must not overlap.
+#[derive(Debug, Clone, Default)]
+pub struct Scenery {
+    /// Solids and reflectances, world frame.
+    pub solids: Vec<Part>,
+    /// Footprints of buildings, poles and trunks (for placing objects).
+    pub obstacles: Vec<Box3d>,
+}
+
+impl Scenery {
+    fn add(&mut self, shape: Shape, reflectance: f32) {
+        self.solids.push((shape, reflectance));
+    }
+
+    fn add_obstacle(&mut self, shape: Shape, reflectance: f32) {
+        let ([x, y], r) = shape.bounding_circle();
+        let (z0, z1) = shape.z_range();
+        let (dx, dy, heading) = match shape {
+            Shape::Cuboid { half, heading, .. } => (2.0 * half[0], 2.0 * half[1], heading),
+            _ => (2.0 * r, 2.0 * r, 0.0),
+        };
+        self.obstacles
+            .push(Box3d::new(x, y, 0.5 * (z0 + z1), dx, dy, z1 - z0, heading));
+        self.add(shape, reflectance);
+    }
+}
+
+/// Builds the scenery of a street over world x ∈ `[x0, x1]`.
+pub fn build_scenery(ground: &Ground, x0: f32, x1: f32, rng: &mut impl Rng) -> Scenery {
+    let mut out = Scenery::default();
+    for side in [-1.0f32, 1.0] {
+        sidewalks(&mut out, ground, side, x0, x1);
+        let edge = ground.street.half_width() + ground.street.sidewalk;
+        if rng.random::<f32>() < 0.8 {
+            buildings(&mut out, ground, side, edge, x0, x1, rng);
+        } else {
+            bushes(&mut out, ground, side, edge + 1.0, (x0, x1), 0.3, rng);
+        }
+        poles(&mut out, ground, side, x0, x1, rng);
+        if rng.random::<f32>() < 0.6 {
+            trees(&mut out, ground, side, x0, x1, rng);
+        }
+    }
+    out
+}
+
+/// Raised slabs in 10 m pieces (short solids keep the azimuth bins small).
+fn sidewalks(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32) {
+    let s = &ground.street;
+    let y = s.centre_y + side * (s.half_width() + 0.5 * s.sidewalk);
+    let mut x = x0;
+    while x < x1 {
+        let mid = x + 5.0;
+        if !s.in_crossing(mid) {
+            let z = ground.height(mid, y);
+            // The slab reaches down into the ground so undulation leaves no gap below it.
+            out.add(
+                Shape::Cuboid {
+                    c: [mid, y, z - 0.2 + 0.5 * (s.kerb + 0.2)],
+                    half: [5.0, 0.5 * s.sidewalk, 0.5 * (s.kerb + 0.2)],
+                    heading: 0.0,
+                },
+                0.36,
+            );
+        }
+        x += 10.0;
+    }
+}
+
+fn buildings(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, x0: f32, x1: f32, rng: &mut impl Rng) {
+    let s = &ground.street;
+    let mut x = x0;
+    while x < x1 {
+        let len = rng.random_range(8.0..35.0);
+        let (mid, setback) = (x + 0.5 * len, rng.random_range(0.0..5.0));
+        let depth = rng.random_range(8.0..20.0);
+        let y = s.centre_y + side * (edge + setback + 0.5 * depth);
+        if !s.in_crossing(x) && !s.in_crossing(x + len) {
+            let h = rng.random_range(4.0..22.0);
+            let z = ground.height(mid, y) - 0.5;
+            let heading = rng.random_range(-0.04..0.04);
+            out.add_obstacle(
+                Shape::Cuboid {
+                    c: [mid, y, z + 0.5 * h],
+                    half: [0.5 * len, 0.5 * depth, 0.5 * h],
+                    heading,
+                },
+                rng.random_range(0.2..0.45),
+            );
+            if setback > 1.5 && rng.random::<f32>() < 0.5 {
+                bushes(out, ground, side, edge + 0.6, (x, x + len), 0.6, rng);
+            }
+        }
+        x += len
+            + if rng.random::<f32>() < 0.4 {
+                rng.random_range(2.0..15.0)
+            } else {
+                0.3
+            };
+    }
+}
+
+fn bushes(
+    out: &mut Scenery,
+    ground: &Ground,
+    side: f32,
+    at: f32,
+    (x0, x1): (f32, f32),
+    density: f32,
+    rng: &mut impl Rng,
+) {
+    let s = &ground.street;
+    let mut x = x0;
+    while x < x1 {
+        let radii = [
+            rng.random_range(0.5..2.0),
+            rng.random_range(0.4..1.0),
+            rng.random_range(0.4..1.0),
+        ];
+        let y = s.centre_y + side * (at + radii[1]);
+        if !s.in_crossing(x) && rng.random::<f32>() < density {
+            let z = ground.height(x, y) + s.kerb + 0.6 * radii[2];
+            out.add(
+                Shape::Ellipsoid {
+                    c: [x, y, z],
+                    radii,
+                    heading: rng.random_range(-0.3..0.3),
+                },
+                rng.random_range(0.4..0.6),
+            );
+        }
+        x += 2.0 * radii[0] + rng.random_range(0.5..6.0);
+    }
+}
+
+fn poles(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32, rng: &mut impl Rng) {
+    let s = &ground.street;
+    let y = s.centre_y + side * (s.half_width() + 0.4);
+    let mut x = x0 + rng.random_range(0.0..20.0);
+    while x < x1 {
+        if !s.in_crossing(x) {
+            let (z, h) = (ground.height(x, y) + s.kerb, rng.random_range(5.0..9.0));
+            out.add_obstacle(
+                Shape::Cylinder {
+                    base: [x, y, z],
+                    r: rng.random_range(0.08..0.15),
+                    h,
+                },
+                0.3,
+            );
+            if rng.random::<f32>() < 0.3 {
+                // A retro-reflective sign facing the traffic.
+                out.add(
+                    Shape::Cuboid {
+                        c: [x, y - side * 0.3, z + 2.6],
+                        half: [0.02, 0.35, 0.3],
+                        heading: 0.0,
+                    },
+                    0.9,
+                );
+            }
+        }
+        x += rng.random_range(15.0..35.0);
+    }
+}
+
+fn trees(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32, rng: &mut impl Rng) {
+    let s = &ground.street;
+    let y = s.centre_y + side * (s.half_width() + 0.5 * s.sidewalk + 0.3);
+    let mut x = x0 + rng.random_range(0.0..10.0);
+    while x < x1 {
+        if !s.in_crossing(x) {
+            let z = ground.height(x, y) + s.kerb;
+            let (trunk, r) = (rng.random_range(2.0..3.5), rng.random_range(0.12..0.3));
+            out.add_obstacle(
+                Shape::Cylinder {
+                    base: [x, y, z],
+                    r,
+                    h: trunk,
+                },
+                0.35,
+            );
+            let cr = rng.random_range(1.2..2.8);
+            let radii = [cr, cr * rng.random_range(0.8..1.0), rng.random_range(1.5..2.5)];
+            out.add(
+                Shape::Ellipsoid {
+                    c: [x, y, z + trunk + 0.7 * radii[2]],
+                    radii,
+                    heading: 0.0,
+                },
+                rng.random_range(0.4..0.55),
+            );
+        }
+        x += rng.random_range(8.0..20.0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::street::Street;
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn scenery_stays_off_the_carriageway() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        for _ in 0..10 {
+            let street = Street::sample(&mut rng);
+            let g = Ground::sample(street.clone(), 1.73, &mut rng);
+            let sc = build_scenery(&g, -130.0, 130.0, &mut rng);
+            assert!(sc.solids.len() > 50);
+            for b in &sc.obstacles {
+                // Every obstacle's footprint lies beyond the kerb.
+                let near = b
+                    .corners_bev()
+                    .iter()
+                    .map(|c| street.lateral(c[1]).abs())
+                    .fold(f32::MAX, f32::min);
+                assert!(near >= street.half_width() - 0.3, "{b:?} intrudes on the road");
+            }
+        }
+    }
+}

@@ -1,0 +1,205 @@
+//! The street every scene is built around, and the terrain under it.
+//!
+//! World frame: the LiDAR frame of the scene's first frame (x along the street, the ego in a
+//! right-hand travel lane at y = 0, ground 1.73 m below the sensor at the origin).
+
+use super::Terrain;
+use rand::Rng;
+
+/// Cross-section of the street; the road runs along world x.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Street {
+    /// y of the centre line.
+    pub centre_y: f32,
+    /// Travel lanes per direction.
+    pub lanes_per_side: usize,
+    /// Lane width (m).
+    pub lane_width: f32,
+    /// Width of the parking strip along each kerb (0 if none).
+    pub parking: f32,
+    /// Sidewalk width (m).
+    pub sidewalk: f32,
+    /// Kerb height (m).
+    pub kerb: f32,
+    /// x of a crossing street's centre line, and its half-width, if there is one.
+    pub crossing: Option<(f32, f32)>,
+}
+
+impl Street {
+    /// Draws a street; the ego's lane (one of the right-hand lanes) is centred on y = 0.
+    pub fn sample(rng: &mut impl Rng) -> Self {
+        let lanes_per_side = if rng.random::<f32>() < 0.6 { 1 } else { 2 };
+        let lane_width = rng.random_range(3.2..3.8);
+        let ego_lane = rng.random_range(0..lanes_per_side);
+        let crossing = (rng.random::<f32>() < 0.35).then(|| {
+            let x = rng.random_range(15.0..70.0) * if rng.random::<f32>() < 0.7 { 1.0 } else { -1.0 };
+            (x, rng.random_range(4.0..7.0))
+        });
+        Self {
+            centre_y: lane_width * (ego_lane as f32 + 0.5),
+            lanes_per_side,
+            lane_width,
+            parking: if rng.random::<f32>() < 0.7 {
+                rng.random_range(2.0..2.6)
+            } else {
+                0.0
+            },
+            sidewalk: rng.random_range(2.0..4.0),
+            kerb: rng.random_range(0.12..0.16),
+            crossing,
+        }
+    }
+
+    /// Half-width of the carriageway, kerb to kerb.
+    pub fn half_width(&self) -> f32 {
+        self.lanes_per_side as f32 * self.lane_width + self.parking
+    }
+
+    /// Signed distance across the street from the centre line (+ to the left).
+    pub fn lateral(&self, y: f32) -> f32 {
+        y - self.centre_y
+    }
+
+    /// y of the centre of travel lane `i` (0 = nearest the centre) on side `side` (+1 left, −1 right).
+    pub fn lane_y(&self, side: f32, i: usize) -> f32 {
+        self.centre_y + side * self.lane_width * (i as f32 + 0.5)
+    }
+
+    /// Whether x lies within the crossing street (plus its sidewalks).
+    pub fn in_crossing(&self, x: f32) -> bool {
+        self.crossing
+            .is_some_and(|(cx, hw)| (x - cx).abs() < hw + self.sidewalk)
+    }
+}
+
+/// The ground: camber falling 2 % from the centre line to the kerbs, and gentle undulation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ground {
+    /// The street it carries.
+    pub street: Street,
+    /// `(kx, ky, amplitude, phase)` of each undulation wave.
+    waves: Vec<[f32; 4]>,
+    /// Added so that the ground under the sensor at the origin is at −mount height.
+    offset: f32,
+}
+
+impl Ground {
+    /// Draws the terrain for `street`, with the ground `mount_height` below the origin.
+    pub fn sample(street: Street, mount_height: f32, rng: &mut impl Rng) -> Self {
+        let waves = (0..3)
+            .map(|_| {
+                let wavelength = rng.random_range(40.0..150.0);
+                let dir: f32 = rng.random_range(-0.3..0.3);
+                let k = std::f32::consts::TAU / wavelength;
+                [
+                    k * dir.cos(),
+                    k * dir.sin(),
+                    rng.random_range(0.02..0.12),
+                    rng.random_range(0.0..6.3),
+                ]
+            })
+            .collect();
+        let mut g = Self {
+            street,
+            waves,
+            offset: 0.0,
+        };
+        g.offset = -mount_height - g.raw(0.0, 0.0);
+        g
+    }
+
+    fn raw(&self, x: f32, y: f32) -> f32 {
+        let camber = -0.02 * self.street.lateral(y).abs().min(self.street.half_width());
+        camber
+            + self
+                .waves
+                .iter()
+                .map(|w| w[2] * (w[0] * x + w[1] * y + w[3]).sin())
+                .sum::<f32>()
+    }
+
+    /// Ground height at world `(x, y)` (sidewalk slabs are solids on top of it).
+    pub fn height(&self, x: f32, y: f32) -> f32 {
+        self.raw(x, y) + self.offset
+    }
+
+    /// Ground reflectance: asphalt, dashed lane markings, and soil or grass off the street.
+    pub fn reflectance(&self, x: f32, y: f32) -> f32 {
+        let s = &self.street;
+        let lat = s.lateral(y);
+        if lat.abs() > s.half_width() && !s.in_crossing(x) {
+            return 0.45;
+        }
+        // Dashed lines between lanes and on the centre line, a solid line along the edge of
+        // the travel lanes.
+        let dash = x.rem_euclid(9.0) < 3.0;
+        let on_line = (0..=s.lanes_per_side).any(|i| {
+            let solid = i == s.lanes_per_side;
+            (lat.abs() - i as f32 * s.lane_width).abs() < 0.08 && (solid || dash)
+        });
+        if on_line { 0.75 } else { 0.28 }
+    }
+}
+
+/// The ground seen from the sensor at a given pose: world height shifted and rotated.
+#[derive(Debug, Clone, Copy)]
+pub struct GroundView<'a> {
+    /// The world's ground.
+    pub ground: &'a Ground,
+    /// Sensor pose in the world: `[x, y, z, yaw]`.
+    pub pose: [f32; 4],
+}
+
+impl GroundView<'_> {
+    fn world_xy(&self, x: f32, y: f32) -> (f32, f32) {
+        let (s, c) = self.pose[3].sin_cos();
+        (self.pose[0] + c * x - s * y, self.pose[1] + s * x + c * y)
+    }
+}
+
+impl Terrain for GroundView<'_> {
+    fn height(&self, x: f32, y: f32) -> f32 {
+        let (wx, wy) = self.world_xy(x, y);
+        self.ground.height(wx, wy) - self.pose[2]
+    }
+
+    fn reflectance(&self, x: f32, y: f32) -> f32 {
+        let (wx, wy) = self.world_xy(x, y);
+        self.ground.reflectance(wx, wy)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn ground_is_mount_height_below_the_origin_and_gentle() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for _ in 0..20 {
+            let street = Street::sample(&mut rng);
+            assert!(street.lane_y(-1.0, 0).abs() < street.lane_width * 2.0);
+            let g = Ground::sample(street, 1.73, &mut rng);
+            assert!((g.height(0.0, 0.0) + 1.73).abs() < 1e-5);
+            // Slope under 3 % everywhere within 100 m.
+            for i in 0..200 {
+                let x = -100.0 + i as f32;
+                let dz = (g.height(x + 0.5, 3.0) - g.height(x - 0.5, 3.0)).abs();
+                assert!(dz < 0.03, "{dz}");
+            }
+        }
+    }
+
+    #[test]
+    fn view_shifts_and_rotates() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(10);
+        let g = Ground::sample(Street::sample(&mut rng), 1.73, &mut rng);
+        let pose = [20.0, 1.0, g.height(20.0, 1.0) + 1.73, 0.3];
+        let v = GroundView { ground: &g, pose };
+        assert!((v.height(0.0, 0.0) + 1.73).abs() < 1e-4);
+        let (s, c) = 0.3f32.sin_cos();
+        let want = g.height(20.0 + 5.0 * c, 1.0 + 5.0 * s) - pose[2];
+        assert!((v.height(5.0, 0.0) - want).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,264 @@
+//! Generating a dataset on disk: independent scenes (`starnet synth --frames N`) or sequences
+//! of consecutive frames (`--sequences M --length L`), in the KITTI object layout.
+//!
+//! ```text
+//! ROOT/training/{velodyne,label_2,calib,label_360}/%06d.*   frames (label_360: sidecar.rs)
+//! ROOT/ImageSets/{train,val,trainval}.txt                   split by scene
+//! ROOT/sequences/%04d/training/...                           one KITTI root per sequence
+//! ROOT/sequences/%04d/poses.txt                              LiDAR pose of frame i in frame 0
+//! ROOT/synth.json                                            what generated the set
+//! ```
+//!
+//! Determinism: every scene draws from its own RNG seeded from (seed, scene index), and every
+//! frame's sensor noise from (scene seed, frame index), so the bytes do not depend on how the
+//! work is spread over threads.
+
+use super::labels::{label_frame, occlusion_level};
+use super::{LidarConfig, SimObject, World, scan, write_sidecar};
+use crate::io::atomic_write;
+use crate::kitti::{
+    Calib, ImageSize, KittiObject, ObjectClass, format_c_exp, format_labels, write_points, write_split,
+};
+use crate::{Point, Result};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Simulation settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SynthConfig {
+    /// The sensor.
+    pub lidar: LidarConfig,
+    /// Share of scenes in the validation split (KITTI: 3769 of 7481).
+    pub val_fraction: f32,
+    /// Time between frames of a sequence, seconds (10 Hz).
+    pub frame_interval: f32,
+    /// Camera image size for the labels.
+    pub image: ImageSize,
+}
+
+impl Default for SynthConfig {
+    fn default() -> Self {
+        Self {
+            lidar: LidarConfig::default(),
+            val_fraction: 0.5,
+            frame_interval: 0.1,
+            image: ImageSize::KITTI,
+        }
+    }
+}
+
+/// One simulated frame.
+#[derive(Debug, Clone)]
+pub struct SynthFrame {
+    /// The scan, LiDAR frame, KITTI point order.
+    pub points: Vec<Point>,
+    /// `label_2` lines.
+    pub labels: Vec<KittiObject>,
+    /// Every object (the sidecar).
+    pub objects: Vec<SimObject>,
+    /// Per point, the index in `objects` of the object it lies on.
+    pub owners: Vec<Option<u32>>,
+    /// Sensor pose in the scene's first frame: `[x, y, z, yaw]`.
+    pub pose: [f32; 4],
+}
+
+/// SplitMix64 of `seed`, `stream` and `index`: independent, reproducible sub-seeds.
+pub fn sub_seed(seed: u64, stream: u64, index: u64) -> u64 {
+    let mut z = seed ^ stream.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Frame `index` of `world`, with sensor noise drawn from `noise_seed`.
+pub fn simulate_frame(world: &World, index: usize, noise_seed: u64, cfg: &SynthConfig, calib: &Calib) -> SynthFrame {
+    let (moment, ground) = world.moment(index as f32 * cfg.frame_interval);
+    let mut rng = ChaCha8Rng::seed_from_u64(noise_seed);
+    let s = scan(&moment.prims, &ground, world.actors.len(), &cfg.lidar, &mut rng);
+    let mut counts = vec![0u32; world.actors.len()];
+    for o in s.owners.iter().flatten() {
+        counts[*o as usize] += 1;
+    }
+    let mut objects: Vec<SimObject> = world
+        .actors
+        .iter()
+        .enumerate()
+        .map(|(i, a)| SimObject {
+            class: a.class,
+            track_id: a.track_id,
+            b: moment.boxes[i],
+            num_points: counts[i],
+            rays_toward: s.rays_toward[i],
+            rays_hit: s.rays_hit[i],
+            occlusion: occlusion_level(s.rays_toward[i], s.rays_hit[i]),
+            in_camera: false,
+        })
+        .collect();
+    let (labels, in_camera) = label_frame(&objects, calib, cfg.image);
+    for (o, seen) in objects.iter_mut().zip(in_camera) {
+        o.in_camera = seen;
+    }
+    SynthFrame {
+        points: s.points,
+        labels,
+        objects,
+        owners: s.owners,
+        pose: moment.pose,
+    }
+}
+
+/// A single-frame scene for dataset entry `index`: redrawn (deterministically) until image 2
+/// shows at least one labelled object, as every real KITTI training frame does.
+pub fn simulate_scene_frame(seed: u64, index: usize, cfg: &SynthConfig, calib: &Calib) -> SynthFrame {
+    for attempt in 0u64.. {
+        let scene_seed = sub_seed(seed, attempt, index as u64);
+        let world = World::generate(&cfg.lidar, 0.0, &mut ChaCha8Rng::seed_from_u64(scene_seed));
+        let frame = simulate_frame(&world, 0, sub_seed(scene_seed, 1, 0), cfg, calib);
+        if frame.labels.iter().any(|l| l.class != ObjectClass::DontCare) {
+            return frame;
+        }
+    }
+    unreachable!("the attempt counter is unbounded")
+}
+
+/// Writes a frame's velodyne, label_2, calib and label_360 files under `training`.
+pub fn write_frame(training: &Path, id: &str, frame: &SynthFrame, calib: &Calib) -> Result<()> {
+    write_points(&training.join("velodyne").join(format!("{id}.bin")), &frame.points)?;
+    atomic_write(
+        &training.join("label_2").join(format!("{id}.txt")),
+        format_labels(&frame.labels).as_bytes(),
+    )?;
+    calib.write(&training.join("calib").join(format!("{id}.txt")))?;
+    write_sidecar(&training.join("label_360").join(format!("{id}.txt")), &frame.objects)
+}
+
+/// Runs `job(i)` for `i in 0..n` on all cores; returns the first error.
+fn parallel(n: usize, job: impl Fn(usize) -> Result<()> + Sync) -> Result<()> {
+    let next = AtomicUsize::new(0);
+    let error = Mutex::new(None);
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(n.max(1));
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    if i >= n || error.lock().expect("no panics while holding it").is_some() {
+                        break;
+                    }
+                    if let Err(e) = job(i) {
+                        error.lock().expect("no panics while holding it").get_or_insert(e);
+                    }
+                }
+            });
+        }
+    });
+    error
+        .into_inner()
+        .expect("no panics while holding it")
+        .map_or(Ok(()), Err)
+}
+
+fn write_manifest(root: &Path, what: serde_json::Value) -> Result<()> {
+    let text = serde_json::to_string_pretty(&what).expect("JSON values serialise") + "\n";
+    atomic_write(&root.join("synth.json"), text.as_bytes())
+}
+
+/// Writes `frames` independent scenes under `root` with train/val splits. `progress` is called
+/// once per finished frame (from worker threads).
+pub fn synth_frames(
+    root: &Path,
+    frames: usize,
+    seed: u64,
+    cfg: &SynthConfig,
+    progress: &(dyn Fn() + Sync),
+) -> Result<()> {
+    let calib = Calib::kitti_000000();
+    let training = root.join("training");
+    parallel(frames, |i| {
+        let frame = simulate_scene_frame(seed, i, cfg, &calib);
+        write_frame(&training, &format!("{i:06}"), &frame, &calib)?;
+        progress();
+        Ok(())
+    })?;
+    let ids: Vec<String> = (0..frames).map(|i| format!("{i:06}")).collect();
+    let is_val = |i: usize| ChaCha8Rng::seed_from_u64(sub_seed(seed, 7, i as u64)).random::<f32>() < cfg.val_fraction;
+    let (mut train, mut val) = (Vec::new(), Vec::new());
+    for (i, id) in ids.iter().enumerate() {
+        if is_val(i) { &mut val } else { &mut train }.push(id.clone());
+    }
+    write_split(&root.join("ImageSets/train.txt"), &train)?;
+    write_split(&root.join("ImageSets/val.txt"), &val)?;
+    write_split(&root.join("ImageSets/trainval.txt"), &ids)?;
+    write_manifest(
+        root,
+        serde_json::json!({ "generator": "starnet synth", "frames": frames, "seed": seed, "config": cfg }),
+    )
+}
+
+/// Writes `sequences` sequences of `length` frames under `root/sequences/%04d/`, each a KITTI
+/// root with a `poses.txt`.
+pub fn synth_sequences(
+    root: &Path,
+    sequences: usize,
+    length: usize,
+    seed: u64,
+    cfg: &SynthConfig,
+    progress: &(dyn Fn() + Sync),
+) -> Result<()> {
+    let calib = Calib::kitti_000000();
+    let duration = length as f32 * cfg.frame_interval;
+    let worlds: Vec<(u64, World)> = (0..sequences)
+        .map(|s| {
+            let scene_seed = sub_seed(seed, 2, s as u64);
+            (
+                scene_seed,
+                World::generate(&cfg.lidar, duration, &mut ChaCha8Rng::seed_from_u64(scene_seed)),
+            )
+        })
+        .collect();
+    let poses: Vec<Mutex<Vec<[f32; 4]>>> = (0..sequences).map(|_| Mutex::new(vec![[0.0; 4]; length])).collect();
+    parallel(sequences * length, |k| {
+        let (s, i) = (k / length, k % length);
+        let (scene_seed, world) = &worlds[s];
+        let frame = simulate_frame(world, i, sub_seed(*scene_seed, 1, i as u64), cfg, &calib);
+        write_frame(
+            &root.join(format!("sequences/{s:04}/training")),
+            &format!("{i:06}"),
+            &frame,
+            &calib,
+        )?;
+        poses[s].lock().expect("no panics while holding it")[i] = frame.pose;
+        progress();
+        Ok(())
+    })?;
+    for (s, p) in poses.into_iter().enumerate() {
+        let text: String = p
+            .into_inner()
+            .expect("no panics while holding it")
+            .iter()
+            .map(|q| pose_line(*q) + "\n")
+            .collect();
+        atomic_write(&root.join(format!("sequences/{s:04}/poses.txt")), text.as_bytes())?;
+    }
+    write_manifest(
+        root,
+        serde_json::json!({ "generator": "starnet synth", "sequences": sequences, "length": length, "seed": seed, "config": cfg }),
+    )
+}
+
+/// A pose `[x, y, z, yaw]` as a KITTI odometry line: the row-major 3 × 4 matrix `[R | t]`.
+pub fn pose_line([x, y, z, yaw]: [f32; 4]) -> String {
+    let (s, c) = (yaw as f64).sin_cos();
+    let m = [c, -s, 0.0, x as f64, s, c, 0.0, y as f64, 0.0, 0.0, 1.0, z as f64];
+    // `+ 0.0` turns −0 (from −sin 0) into 0, as C writers print it.
+    m.iter()
+        .map(|v| format_c_exp(*v + 0.0, 6))
+        .collect::<Vec<_>>()
+        .join(" ")
+}

@@ -1,0 +1,232 @@
+//! A scene: street, terrain, scenery, labelled actors and the ego's drive, and what the
+//! sensor sees of it at time `t` (everything moved into that moment's LiDAR frame).
+
+use super::placement::Placer;
+use super::scenery::{Scenery, build_scenery};
+use super::street::{Ground, GroundView, Street};
+use super::{LidarConfig, Part, Primitive, Shape, tight_box};
+use crate::kitti::ObjectClass;
+use crate::{Box3d, wrap_angle};
+use rand::Rng;
+
+/// A labelled object: its parts in its own frame and its straight-line motion.
+#[derive(Debug, Clone)]
+pub struct Actor {
+    /// Object class.
+    pub class: ObjectClass,
+    /// Track id, stable across the frames of a sequence.
+    pub track_id: u32,
+    /// Parts in the object's own frame (origin on the ground, x along the heading).
+    pub parts: Vec<Part>,
+    /// Tight box of the parts in the object's own frame: centre and `[dx, dy, dz]`.
+    pub local_box: ([f32; 3], [f32; 3]),
+    /// World position at t = 0.
+    pub start: [f32; 2],
+    /// Heading (constant: actors move straight).
+    pub heading: f32,
+    /// Speed along the heading, m/s.
+    pub speed: f32,
+    /// Footprint at t = 0 with a safety margin, for placing other objects.
+    pub footprint: Box3d,
+}
+
+impl Actor {
+    /// An actor from its parts and motion.
+    pub fn new(
+        class: ObjectClass,
+        track_id: u32,
+        parts: Vec<Part>,
+        start: [f32; 2],
+        heading: f32,
+        speed: f32,
+        footprint: Box3d,
+    ) -> Self {
+        let local_box = tight_box(&parts);
+        Self {
+            class,
+            track_id,
+            parts,
+            local_box,
+            start,
+            heading,
+            speed,
+            footprint,
+        }
+    }
+
+    /// World pose of the actor's frame at `t`: `[x, y, z, heading]`, z on the ground.
+    pub fn pose(&self, t: f32, ground: &Ground) -> [f32; 4] {
+        let (s, c) = self.heading.sin_cos();
+        let (x, y) = (self.start[0] + c * self.speed * t, self.start[1] + s * self.speed * t);
+        let lateral = ground.street.lateral(y).abs();
+        let kerb = if lateral > ground.street.half_width() && !ground.street.in_crossing(x) {
+            ground.street.kerb
+        } else {
+            0.0
+        };
+        [x, y, ground.height(x, y) + kerb, self.heading]
+    }
+}
+
+/// Moves a solid from a frame posed at `p = [x, y, z, yaw]` into the frame that holds it.
+fn place(shape: &Shape, p: [f32; 4]) -> Shape {
+    shape.moved(p[3], [p[0], p[1], p[2]])
+}
+
+/// Moves a box the same way.
+fn place_box(centre: [f32; 3], dims: [f32; 3], heading: f32, p: [f32; 4]) -> Box3d {
+    let (s, c) = p[3].sin_cos();
+    let (x, y) = (
+        p[0] + c * centre[0] - s * centre[1],
+        p[1] + s * centre[0] + c * centre[1],
+    );
+    Box3d::new(x, y, p[2] + centre[2], dims[0], dims[1], dims[2], heading + p[3])
+}
+
+/// The inverse of a pose: the pose of the world in the posed frame.
+fn inverse(p: [f32; 4]) -> [f32; 4] {
+    let (s, c) = p[3].sin_cos();
+    [-(c * p[0] + s * p[1]), s * p[0] - c * p[1], -p[2], -p[3]]
+}
+
+/// Everything that moves or stays in one scene.
+#[derive(Debug, Clone)]
+pub struct World {
+    /// Terrain (and the street it carries).
+    pub ground: Ground,
+    /// Unlabelled solids.
+    pub scenery: Scenery,
+    /// Labelled objects.
+    pub actors: Vec<Actor>,
+    /// Ego speed, m/s.
+    pub ego_speed: f32,
+    /// Lateral weave of the ego's path: amplitude (m) and wavelength (m).
+    weave: [f32; 2],
+    mount_height: f32,
+}
+
+/// What the sensor sees at one moment, in its own LiDAR frame.
+#[derive(Debug, Clone)]
+pub struct Moment {
+    /// Every solid, actors' parts tagged with the actor index.
+    pub prims: Vec<Primitive>,
+    /// The actors' tight boxes, indexed like [`World::actors`].
+    pub boxes: Vec<Box3d>,
+    /// Ego (sensor) pose in the world frame: `[x, y, z, yaw]`.
+    pub pose: [f32; 4],
+}
+
+impl World {
+    /// Draws a scene the ego drives through for `duration` seconds.
+    pub fn generate(lidar: &LidarConfig, duration: f32, rng: &mut impl Rng) -> Self {
+        let street = Street::sample(rng);
+        let ground = Ground::sample(street, lidar.mount_height, rng);
+        let ego_speed = rng.random_range(5.0..12.0);
+        let scenery = build_scenery(
+            &ground,
+            -lidar.max_range - 10.0,
+            lidar.max_range + 10.0 + ego_speed * duration,
+            rng,
+        );
+        let actors = Placer::new(&ground.street, &scenery.obstacles, rng).place_all(rng);
+        let weave = [rng.random_range(0.0..0.4), rng.random_range(60.0..150.0)];
+        Self {
+            ground,
+            scenery,
+            actors,
+            ego_speed,
+            weave,
+            mount_height: lidar.mount_height,
+        }
+    }
+
+    /// Ego (sensor) pose in the world at `t`: `[x, y, z, yaw]`; the identity at t = 0.
+    pub fn ego_pose(&self, t: f32) -> [f32; 4] {
+        let x = self.ego_speed * t;
+        let k = std::f32::consts::TAU / self.weave[1];
+        let y = self.weave[0] * (1.0 - (k * x).cos());
+        let yaw = (self.weave[0] * k * (k * x).sin()).atan();
+        [x, y, self.ground.height(x, y) + self.mount_height, yaw]
+    }
+
+    /// The scene at `t` in the sensor's frame, and the terrain as the sensor sees it.
+    pub fn moment(&self, t: f32) -> (Moment, GroundView<'_>) {
+        let pose = self.ego_pose(t);
+        let inv = inverse(pose);
+        let mut prims: Vec<Primitive> = self
+            .scenery
+            .solids
+            .iter()
+            .map(|(s, r)| Primitive {
+                shape: place(s, inv),
+                reflectance: *r,
+                owner: None,
+            })
+            .collect();
+        let mut boxes = Vec::with_capacity(self.actors.len());
+        for (i, a) in self.actors.iter().enumerate() {
+            let ap = self.to_frame(a.pose(t, &self.ground), inv);
+            prims.extend(a.parts.iter().map(|(s, r)| Primitive {
+                shape: place(s, ap),
+                reflectance: *r,
+                owner: Some(i as u32),
+            }));
+            boxes.push(place_box(a.local_box.0, a.local_box.1, 0.0, ap));
+        }
+        (
+            Moment { prims, boxes, pose },
+            GroundView {
+                ground: &self.ground,
+                pose,
+            },
+        )
+    }
+
+    /// Composes a world pose with the world-to-sensor pose `inv`.
+    fn to_frame(&self, p: [f32; 4], inv: [f32; 4]) -> [f32; 4] {
+        let (s, c) = inv[3].sin_cos();
+        [
+            inv[0] + c * p[0] - s * p[1],
+            inv[1] + s * p[0] + c * p[1],
+            inv[2] + p[2],
+            wrap_angle(inv[3] + p[3]),
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn inverse_pose_round_trip() {
+        let p = [3.0, -2.0, 0.5, 0.7];
+        let b = place_box([1.0, 0.5, 0.2], [4.0, 2.0, 1.5], 0.1, p);
+        let back = place_box([b.x, b.y, b.z], [b.dx, b.dy, b.dz], b.heading, inverse(p));
+        assert!((back.x - 1.0).abs() < 1e-5 && (back.y - 0.5).abs() < 1e-5 && (back.z - 0.2).abs() < 1e-5);
+        assert!((back.heading - 0.1).abs() < 1e-5);
+    }
+
+    #[test]
+    fn ego_starts_at_the_origin_and_drives_forward() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+        let w = World::generate(&LidarConfig::default(), 5.0, &mut rng);
+        let p0 = w.ego_pose(0.0);
+        assert!(p0.iter().all(|v| v.abs() < 1e-5), "{p0:?}");
+        let p1 = w.ego_pose(1.0);
+        assert!((p1[0] - w.ego_speed).abs() < 1e-4 && p1[3].abs() < 0.05);
+        // At t = 0 the sensor frame is the world frame: boxes equal the actors' world boxes.
+        let (m, view) = w.moment(0.0);
+        use super::super::Terrain;
+        assert!((view.height(0.0, 0.0) + 1.73).abs() < 1e-4);
+        for (a, b) in w.actors.iter().zip(&m.boxes) {
+            let p = a.pose(0.0, &w.ground);
+            assert!(
+                (b.z - 0.5 * b.dz - p[2]).abs() < 0.02,
+                "{:?} stands on the ground",
+                a.class
+            );
+        }
+    }
+}
