@@ -178,3 +178,108 @@ fn synth_writes_a_kitti_root_prints_stats_and_keeps_existing_data() {
     ]));
     assert_eq!(png_pixels(&png).0, 800);
 }
+
+#[test]
+fn prepare_coverage_and_augmented_render_on_simulated_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("sim");
+    let r = root.to_str().unwrap();
+    stdout(&starnet(&[
+        "synth",
+        "--out",
+        r,
+        "--frames",
+        "6",
+        "--seed",
+        "2",
+        "--val-fraction",
+        "0.5",
+    ]));
+    let out = stdout(&starnet(&["prepare", "--data", r]));
+    assert!(
+        out.starts_with(&format!("wrote {}", root.join("gt_database.bin").display())),
+        "{out}"
+    );
+    let db = starnet_data::augment::GtDatabase::read(&root.join("gt_database.bin")).unwrap();
+    assert!(
+        db.entries
+            .iter()
+            .any(|e| e.class == starnet_data::kitti::ObjectClass::Car)
+    );
+
+    let plot = dir.path().join("coverage.png");
+    let table = stdout(&starnet(&[
+        "coverage",
+        "--data",
+        r,
+        "--samples",
+        "16,64,256",
+        "--plot",
+        plot.to_str().unwrap(),
+    ]));
+    let rows: Vec<Vec<f64>> = table
+        .lines()
+        .filter(|l| l.starts_with("| Fps") || l.starts_with("| Random"))
+        .map(|l| l.split('|').skip(2).filter_map(|v| v.trim().parse().ok()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2, "{table}");
+    assert!(
+        rows.iter().all(|r| r.len() == 3 && r.windows(2).all(|w| w[0] <= w[1])),
+        "coverage grows with centers: {table}"
+    );
+    assert_eq!(png_pixels(&plot).0, 900);
+
+    let png = dir.path().join("aug.png");
+    let args = [
+        "render",
+        "--data",
+        r,
+        "--frame",
+        "000001",
+        "--out",
+        png.to_str().unwrap(),
+        "--augment",
+        "--centers",
+        "fps:128",
+    ];
+    stdout(&starnet(&args));
+    let (_, _, px) = png_pixels(&png);
+    assert!(
+        px.chunks_exact(3).filter(|p| *p == [255, 60, 220]).count() > 128 * 9,
+        "centers drawn"
+    );
+    let bad = starnet(&[
+        "render",
+        "--data",
+        r,
+        "--frame",
+        "000001",
+        "--out",
+        png.to_str().unwrap(),
+        "--centers",
+        "fps256",
+    ]);
+    assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("SAMPLER:COUNT"));
+
+    // A corrupt database is named, not a panic.
+    let bytes = std::fs::read(root.join("gt_database.bin")).unwrap();
+    std::fs::write(root.join("gt_database.bin"), &bytes[..bytes.len() / 2]).unwrap();
+    let o = starnet(&[
+        "render",
+        "--data",
+        r,
+        "--frame",
+        "000001",
+        "--out",
+        png.to_str().unwrap(),
+        "--augment",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && err.contains("gt_database.bin")
+            && err.contains("truncated")
+            && !err.contains("panicked"),
+        "{err}"
+    );
+}

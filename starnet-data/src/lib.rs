@@ -36,10 +36,14 @@
 
 #![warn(missing_docs)]
 
+pub mod augment;
 pub mod error;
 pub mod geometry;
 pub mod io;
 pub mod kitti;
+pub mod loader;
+mod par;
+pub mod sampling;
 pub mod sim;
 
 pub use error::{DataError, Result};

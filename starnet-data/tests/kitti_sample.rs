@@ -121,3 +121,24 @@ fn embedded_calibration_is_frame_000000s_file() {
     let real = std::fs::read_to_string(sample_root().join("training/calib/000000.txt")).unwrap();
     assert_eq!(starnet_data::kitti::KITTI_000000_CALIB, real);
 }
+
+/// The LiDAR box of frame 000001's truck against OpenPCDet's formula, computed independently:
+///
+/// ```python
+/// R0 = eye(4); R0[:3, :3] = R0_rect; Tr = eye(4); Tr[:3, :] = Tr_velo_to_cam   # calib/000001.txt
+/// c = inv(R0 @ Tr) @ [0.47, 1.49, 69.44, 1]; c[2] += 2.85 / 2                   # label x y z, h
+/// # -> [69.7248, -0.4476, 0.5837]; heading = -(ry + pi/2) = -(-1.56 + pi/2) = -0.0108
+/// ```
+/// We shift by h/2 along camera y before the rotation (the exact bottom-to-centre offset), which
+/// differs from OpenPCDet's shift along LiDAR z by h/2 · sin(tilt), under 2 cm here.
+#[test]
+fn truck_box_matches_openpcdet() {
+    let ds = KittiDataset::open(sample_root(), None).unwrap();
+    let frame = ds.load("000001").unwrap();
+    let (obj, b) = frame.labelled_boxes()[0];
+    assert_eq!(obj.class, ObjectClass::Truck);
+    for (got, want) in [(b.x, 69.7248), (b.y, -0.4476), (b.z, 0.5837)] {
+        assert!((got - want).abs() < 0.02, "{b:?}");
+    }
+    assert!((b.heading + 0.0108).abs() < 1e-4 && (b.dx, b.dy, b.dz) == (12.34, 2.63, 2.85));
+}

@@ -4,8 +4,10 @@
 
 #![warn(missing_docs)]
 
+pub mod coverage;
 pub mod error;
 pub mod inspect;
+pub mod prepare;
 pub mod render;
 pub mod synth;
 

@@ -4,8 +4,11 @@
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use starnet_data::kitti::KittiDataset;
+use starnet_data::sampling::Sampler;
+use starnet_train::coverage::run_coverage;
 use starnet_train::inspect::inspect_frame;
-use starnet_train::render::{BevOptions, render_frame};
+use starnet_train::prepare::run_prepare;
+use starnet_train::render::{BevOptions, RenderOptions, render_frame};
 use starnet_train::synth::{SynthJob, run_stats, run_synth};
 use std::path::PathBuf;
 
@@ -61,6 +64,51 @@ enum Command {
         /// Pixels per metre.
         #[arg(long, default_value_t = 10.0)]
         px_per_m: f32,
+        /// Apply the training augmentation first (pastes from ROOT/gt_database.bin if present).
+        #[arg(long)]
+        augment: bool,
+        /// Sample and draw centers, as SAMPLER:COUNT, e.g. fps:256 or random:128.
+        #[arg(long, value_parser = parse_centers)]
+        centers: Option<(Sampler, usize)>,
+        /// Seed for --augment and --centers.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
+    /// Measure how many objects (with at least 5 points) the sampled centers reach: the share
+    /// with an anchor at BEV IoU > 0.5 around some center, per sampler and center count
+    /// (the StarNet paper's figure 5). Prints a table and writes a PNG plot.
+    Coverage {
+        /// KITTI root.
+        #[arg(long)]
+        data: PathBuf,
+        /// Split to measure (ImageSets/SPLIT.txt); every frame if absent.
+        #[arg(long)]
+        split: Option<String>,
+        /// Center counts.
+        #[arg(long, value_delimiter = ',', default_value = "16,32,64,128,256,512,1024")]
+        samples: Vec<usize>,
+        /// Samplers to compare: fps, random.
+        #[arg(long, value_delimiter = ',', default_value = "fps,random")]
+        sampler: Vec<Sampler>,
+        /// Sample centers all around the sensor, not only in the camera's view.
+        #[arg(long)]
+        full: bool,
+        /// Output PNG.
+        #[arg(long, default_value = "coverage.png")]
+        plot: PathBuf,
+        /// Seed for the samplers.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
+    /// Build the ground-truth database for paste augmentation from the train split:
+    /// every labelled object with the points inside its box, written to ROOT/gt_database.bin.
+    Prepare {
+        /// KITTI root.
+        #[arg(long)]
+        data: PathBuf,
+        /// Split to draw objects from.
+        #[arg(long, default_value = "train")]
+        split: String,
     },
     /// Generate the built-in dataset: a ray-cast 64-beam LiDAR over simulated streets, written in
     /// the KITTI layout (velodyne, label_2, calib, ImageSets, plus a 360-degree label sidecar).
@@ -109,6 +157,9 @@ fn main() -> anyhow::Result<()> {
             range,
             full,
             px_per_m,
+            augment,
+            centers,
+            seed,
         } => {
             anyhow::ensure!(range > 0.0 && px_per_m > 0.0, "--range and --px-per-m must be positive");
             anyhow::ensure!(
@@ -121,11 +172,36 @@ fn main() -> anyhow::Result<()> {
             } else {
                 BevOptions::front(range, px_per_m)
             };
-            let canvas = render_frame(&ds, &frame, results.as_deref(), full, &view)?;
+            let extra = RenderOptions {
+                results,
+                all_around: full,
+                augment,
+                centers,
+                seed,
+            };
+            let canvas = render_frame(&ds, &frame, &extra, &view)?;
             canvas
                 .save_png(&out)
                 .with_context(|| format!("writing {}", out.display()))?;
             println!("wrote {} ({} x {} px)", out.display(), canvas.width(), canvas.height());
+        }
+        Command::Coverage {
+            data,
+            split,
+            samples,
+            sampler,
+            full,
+            plot,
+            seed,
+        } => {
+            anyhow::ensure!(
+                !samples.is_empty() && samples.iter().all(|n| *n > 0),
+                "--samples needs positive counts"
+            );
+            run_coverage(&data, split.as_deref(), &samples, &sampler, full, &plot, seed)?;
+        }
+        Command::Prepare { data, split } => {
+            run_prepare(&data, &split)?;
         }
         Command::Synth {
             out,
@@ -152,4 +228,13 @@ fn main() -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Parses `SAMPLER:COUNT`.
+fn parse_centers(s: &str) -> Result<(Sampler, usize), String> {
+    let (sampler, n) = s
+        .split_once(':')
+        .ok_or_else(|| format!("`{s}`: expected SAMPLER:COUNT, e.g. fps:256"))?;
+    let n: usize = n.parse().map_err(|_| format!("`{n}` is not a count"))?;
+    Ok((sampler.parse()?, n))
 }

@@ -19,13 +19,13 @@ use crate::io::atomic_write;
 use crate::kitti::{
     Calib, ImageSize, KittiObject, ObjectClass, format_c_exp, format_labels, write_points, write_split,
 };
+use crate::par::parallel_for;
 use crate::{Point, Result};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Simulation settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -136,34 +136,6 @@ pub fn write_frame(training: &Path, id: &str, frame: &SynthFrame, calib: &Calib)
     write_sidecar(&training.join("label_360").join(format!("{id}.txt")), &frame.objects)
 }
 
-/// Runs `job(i)` for `i in 0..n` on all cores; returns the first error.
-fn parallel(n: usize, job: impl Fn(usize) -> Result<()> + Sync) -> Result<()> {
-    let next = AtomicUsize::new(0);
-    let error = Mutex::new(None);
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(n.max(1));
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= n || error.lock().expect("no panics while holding it").is_some() {
-                        break;
-                    }
-                    if let Err(e) = job(i) {
-                        error.lock().expect("no panics while holding it").get_or_insert(e);
-                    }
-                }
-            });
-        }
-    });
-    error
-        .into_inner()
-        .expect("no panics while holding it")
-        .map_or(Ok(()), Err)
-}
-
 fn write_manifest(root: &Path, what: serde_json::Value) -> Result<()> {
     let text = serde_json::to_string_pretty(&what).expect("JSON values serialise") + "\n";
     atomic_write(&root.join("synth.json"), text.as_bytes())
@@ -180,7 +152,7 @@ pub fn synth_frames(
 ) -> Result<()> {
     let calib = Calib::kitti_000000();
     let training = root.join("training");
-    parallel(frames, |i| {
+    parallel_for(frames, |i| {
         let frame = simulate_scene_frame(seed, i, cfg, &calib);
         write_frame(&training, &format!("{i:06}"), &frame, &calib)?;
         progress();
@@ -223,7 +195,7 @@ pub fn synth_sequences(
         })
         .collect();
     let poses: Vec<Mutex<Vec<[f32; 4]>>> = (0..sequences).map(|_| Mutex::new(vec![[0.0; 4]; length])).collect();
-    parallel(sequences * length, |k| {
+    parallel_for(sequences * length, |k| {
         let (s, i) = (k / length, k % length);
         let (scene_seed, world) = &worlds[s];
         let frame = simulate_frame(world, i, sub_seed(*scene_seed, 1, i as u64), cfg, &calib);

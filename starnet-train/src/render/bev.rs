@@ -5,10 +5,14 @@
 
 use super::{Canvas, Rgb};
 use crate::Result;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use starnet_data::augment::{AugmentConfig, GtDatabase, Scene, augment};
 use starnet_data::kitti::{KittiDataset, ObjectClass, read_labels};
+use starnet_data::sampling::{CenterPoolConfig, CenterZ, Sampler, center_pool, sample_centers};
 use starnet_data::sim::read_sidecar;
 use starnet_data::{Box3d, DataError, Point};
-use std::path::Path;
+use std::path::PathBuf;
 
 /// Extent and resolution of a bird's-eye view (LiDAR-frame metres).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,7 +56,7 @@ impl BevOptions {
     }
 
     /// Distance from the sensor to the farthest corner of the view.
-    fn reach(&self) -> f32 {
+    pub fn reach(&self) -> f32 {
         let fx = self.x[0].abs().max(self.x[1].abs());
         let fy = self.y[0].abs().max(self.y[1].abs());
         fx.hypot(fy)
@@ -81,6 +85,7 @@ const RING: Rgb = [48, 52, 64];
 const GT: Rgb = [60, 230, 100];
 const PRED: Rgb = [255, 140, 20];
 const TEXT: Rgb = [230, 230, 230];
+const CENTER: Rgb = [255, 60, 220];
 
 /// Height colour: blue at the road (z ≈ −1.7 m), through green, to red at +1 m and above.
 fn height_colour(z: f32) -> Rgb {
@@ -152,9 +157,15 @@ fn draw_overlay(canvas: &mut Canvas, opts: &BevOptions, title: &str, has_preds: 
         TEXT,
         2,
     );
-    let title_w = 12 * title.chars().count() as i64;
+    // Long titles (augmented frames) drop to the small font rather than run off the image.
+    let scale = if 12 * title.chars().count() + 20 > canvas.width() {
+        1
+    } else {
+        2
+    };
+    let title_w = (6 * scale * title.chars().count()) as i64;
     canvas.fill_rect(0, 0, 20 + title_w.max(300), 52, BACKGROUND);
-    canvas.text(10, 10, title, TEXT, 2);
+    canvas.text(10, 10, title, TEXT, scale);
     let w = canvas.text(10, 32, "GROUND TRUTH", GT, 2);
     if has_preds {
         canvas.text(10 + w + 16, 32, "PREDICTION", PRED, 2);
@@ -186,40 +197,78 @@ pub fn render_bev(points: &[Point], gt: &[BevBox], preds: &[BevBox], opts: &BevO
     canvas
 }
 
-/// Loads frame `id` of `dataset`, and the KITTI result file `results/{id}.txt` if a result
-/// directory is given, and draws them. Ground truth comes from `label_2`, or, when `all_around`
-/// is set and the frame has one, from the simulator's 360° sidecar (`label_360`), which also
-/// holds the objects outside the camera's view.
-pub fn render_frame(
-    dataset: &KittiDataset,
-    id: &str,
-    results: Option<&Path>,
-    all_around: bool,
-    opts: &BevOptions,
-) -> Result<Canvas> {
+/// What [`render_frame`] draws besides the points and labels.
+#[derive(Debug, Clone, Default)]
+pub struct RenderOptions {
+    /// A folder of KITTI result files (`{id}.txt`) to draw as predictions.
+    pub results: Option<PathBuf>,
+    /// Draw the simulator's 360° sidecar (`label_360`) as ground truth when the frame has one.
+    pub all_around: bool,
+    /// Augment the frame first (training augmentation, with `ROOT/gt_database.bin` if present).
+    pub augment: bool,
+    /// Sample and draw centers: sampler and count.
+    pub centers: Option<(Sampler, usize)>,
+    /// Seed for augmentation and sampling.
+    pub seed: u64,
+}
+
+/// Loads frame `id` of `dataset` and draws it with the extras `extra` asks for. Ground truth
+/// comes from `label_2`, or with `all_around` from the 360° sidecar when the frame has one.
+pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opts: &BevOptions) -> Result<Canvas> {
     let frame = dataset.load(id)?;
     let sidecar = dataset.path("label_360", id, "txt");
-    let gt: Vec<BevBox> = if all_around && sidecar.is_file() {
-        read_sidecar(&sidecar)?
-            .into_iter()
-            .map(|o| BevBox {
-                class: o.class,
-                b: o.b,
-                score: None,
-            })
-            .collect()
+    let labelled: Vec<(ObjectClass, Box3d)> = if extra.all_around && sidecar.is_file() {
+        read_sidecar(&sidecar)?.into_iter().map(|o| (o.class, o.b)).collect()
     } else {
-        frame
-            .labelled_boxes()
-            .into_iter()
-            .map(|(o, b)| BevBox {
-                class: o.class,
-                b,
-                score: None,
-            })
-            .collect()
+        frame.labelled_boxes().into_iter().map(|(o, b)| (o.class, b)).collect()
     };
-    let preds = match results {
+    let mut scene = Scene {
+        points: frame.points.clone(),
+        boxes: labelled.iter().map(|l| l.1).collect(),
+        classes: labelled.iter().map(|l| l.0).collect(),
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(extra.seed);
+    let mut title = format!("FRAME {id}");
+    if extra.augment {
+        let db_path = dataset.root().join("gt_database.bin");
+        let db = if db_path.is_file() {
+            Some(GtDatabase::read(&db_path)?)
+        } else {
+            None
+        };
+        let draw = augment(&mut scene, &AugmentConfig::default(), db.as_ref(), &mut rng);
+        title += &format!(
+            "  AUGMENTED: +{} PASTED, ROT {:.2}, SCALE {:.3}{}",
+            draw.pasted.len(),
+            draw.rotation,
+            draw.scale,
+            if draw.flipped { ", FLIPPED" } else { "" }
+        );
+    }
+    let centers = match extra.centers {
+        Some((sampler, n)) => {
+            let pool_cfg = if extra.all_around {
+                CenterPoolConfig::all_around(opts.reach())
+            } else {
+                CenterPoolConfig::kitti()
+            };
+            let pool = center_pool(&scene.points, &pool_cfg, Some((&frame.calib, frame.image_size)));
+            title += &format!("  {n} {sampler:?} CENTERS").to_uppercase();
+            sample_centers(&scene.points, &pool, n, sampler, &[], CenterZ::Point, &mut rng).xyz
+        }
+        None => Vec::new(),
+    };
+    let gt: Vec<BevBox> = scene
+        .boxes
+        .iter()
+        .zip(&scene.classes)
+        .map(|(b, c)| BevBox {
+            class: *c,
+            b: *b,
+            score: None,
+        })
+        .collect();
+    let preds = match &extra.results {
         None => Vec::new(),
         Some(dir) => {
             let path = dir.join(format!("{id}.txt"));
@@ -241,8 +290,12 @@ pub fn render_frame(
                 .collect()
         }
     };
-    let title = format!("FRAME {id}  {} POINTS", frame.points.len());
-    Ok(render_bev(&frame.points, &gt, &preds, opts, &title))
+    let mut canvas = render_bev(&scene.points, &gt, &preds, opts, &title);
+    for c in &centers {
+        let [u, v] = opts.pixel(c[0], c[1]);
+        canvas.fill_rect(u as i64 - 2, v as i64 - 2, u as i64 + 3, v as i64 + 3, CENTER);
+    }
+    Ok(canvas)
 }
 
 #[cfg(test)]

@@ -47,6 +47,8 @@ pub fn glyph(c: char) -> [u8; 7] {
         '-' => [0, 0, 0, 0x1F, 0, 0, 0],
         '+' => [0, 0x04, 0x04, 0x1F, 0x04, 0x04, 0],
         '=' => [0, 0, 0x1F, 0, 0x1F, 0, 0],
+        '>' => [0x10, 0x08, 0x04, 0x02, 0x04, 0x08, 0x10],
+        '<' => [0x01, 0x02, 0x04, 0x08, 0x04, 0x02, 0x01],
         ':' => [0, 0x0C, 0x0C, 0, 0x0C, 0x0C, 0],
         '/' => [0, 0x01, 0x02, 0x04, 0x08, 0x10, 0],
         '_' => [0, 0, 0, 0, 0, 0, 0x1F],
@@ -66,7 +68,7 @@ mod tests {
 
     #[test]
     fn glyphs_fit_five_columns_and_differ() {
-        let chars: Vec<char> = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZm.-:/%()".chars().collect();
+        let chars: Vec<char> = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZm.-:/%()<>".chars().collect();
         for &c in &chars {
             assert!(glyph(c).iter().all(|row| row >> 5 == 0), "{c}");
         }

@@ -3,6 +3,8 @@
 mod bev;
 mod canvas;
 mod font;
+mod plot;
 
-pub use bev::{BevBox, BevOptions, render_bev, render_frame};
+pub use bev::{BevBox, BevOptions, RenderOptions, render_bev, render_frame};
 pub use canvas::{Canvas, Rgb};
+pub use plot::{LinePlot, Series};

@@ -1,0 +1,271 @@
+//! Training-time augmentation, in the authors' order (lingvo `params/kitti.py`, DESIGN §5):
+//! database paste, per-box rotation, flip y, global rotation, global scaling, global z shift,
+//! and — after center selection, so it only thins the gathered neighbourhoods — a one-ring
+//! dropout. Every step first draws its parameters from the RNG it is given, then applies them
+//! to points and boxes together; [`augment`] returns what it drew.
+
+mod gtdb;
+mod paste;
+mod transforms;
+
+pub use gtdb::{GTDB_VERSION, GtDatabase, GtEntry};
+pub use paste::{DbPasteConfig, paste_from_database};
+pub use transforms::{Scene, flip_y, rotate_box, rotate_z, scale, shift_z};
+
+use crate::Point;
+use rand::Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+use std::f32::consts::{FRAC_PI_4, PI};
+
+/// A step with a symmetric uniform range `U(−max, max)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UniformStep {
+    /// Whether the step runs.
+    pub enabled: bool,
+    /// Half-width of the range.
+    pub max: f32,
+}
+
+/// Augmentation settings; the defaults are the authors' KITTI car settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AugmentConfig {
+    /// Ground-truth database paste.
+    pub db_paste: DbPasteConfig,
+    /// Per-box rotation about the box centre, radians (π/20).
+    pub box_rotation: UniformStep,
+    /// Whether to mirror y, and with which probability (0.5).
+    pub flip_y: bool,
+    /// Probability of the flip.
+    pub flip_probability: f32,
+    /// Global rotation about z, radians (π/4).
+    pub global_rotation: UniformStep,
+    /// Global scaling: enabled, and the range `[min, max]` ([0.95, 1.05]).
+    pub global_scaling: bool,
+    /// Scaling range.
+    pub scaling_range: [f32; 2],
+    /// Global z shift: enabled, and its standard deviation in metres (0.35).
+    pub z_shift: bool,
+    /// Standard deviation of the z shift.
+    pub z_shift_sigma: f32,
+    /// One-ring dropout after center selection.
+    pub ring_dropout: bool,
+    /// Width in radians of the dropped band of inclination (0.03, about one laser ring).
+    pub ring_dropout_width: f32,
+}
+
+impl Default for AugmentConfig {
+    fn default() -> Self {
+        Self {
+            db_paste: DbPasteConfig::default(),
+            box_rotation: UniformStep {
+                enabled: true,
+                max: PI / 20.0,
+            },
+            flip_y: true,
+            flip_probability: 0.5,
+            global_rotation: UniformStep {
+                enabled: true,
+                max: FRAC_PI_4,
+            },
+            global_scaling: true,
+            scaling_range: [0.95, 1.05],
+            z_shift: true,
+            z_shift_sigma: 0.35,
+            ring_dropout: true,
+            ring_dropout_width: 0.03,
+        }
+    }
+}
+
+impl AugmentConfig {
+    /// Every step off: the identity.
+    pub fn none() -> Self {
+        Self {
+            db_paste: DbPasteConfig {
+                enabled: false,
+                ..Default::default()
+            },
+            box_rotation: UniformStep {
+                enabled: false,
+                max: 0.0,
+            },
+            flip_y: false,
+            global_rotation: UniformStep {
+                enabled: false,
+                max: 0.0,
+            },
+            global_scaling: false,
+            z_shift: false,
+            ring_dropout: false,
+            ..Self::default()
+        }
+    }
+}
+
+/// What one call of [`augment`] drew (identity values for disabled steps).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AugmentDraw {
+    /// Database entries pasted.
+    pub pasted: Vec<usize>,
+    /// Per-box rotations, after pasting (one per box).
+    pub box_rotations: Vec<f32>,
+    /// Whether y was mirrored.
+    pub flipped: bool,
+    /// Global rotation.
+    pub rotation: f32,
+    /// Global scale.
+    pub scale: f32,
+    /// Global z shift.
+    pub z_shift: f32,
+}
+
+/// Augments a scene in place (all steps but the ring dropout, which [`ring_dropout`] applies
+/// after center selection).
+pub fn augment(scene: &mut Scene, cfg: &AugmentConfig, db: Option<&GtDatabase>, rng: &mut impl Rng) -> AugmentDraw {
+    let pasted = match db {
+        Some(db) if cfg.db_paste.enabled => paste_from_database(scene, db, &cfg.db_paste, rng),
+        _ => Vec::new(),
+    };
+    let uniform = |step: &UniformStep, rng: &mut dyn rand::RngCore| {
+        if step.enabled && step.max > 0.0 {
+            rng.random_range(-step.max..step.max)
+        } else {
+            0.0
+        }
+    };
+    let box_rotations: Vec<f32> = (0..scene.boxes.len())
+        .map(|_| uniform(&cfg.box_rotation, rng))
+        .collect();
+    for (i, &a) in box_rotations.iter().enumerate() {
+        if a != 0.0 {
+            rotate_box(scene, i, a);
+        }
+    }
+    let flipped = cfg.flip_y && rng.random::<f32>() < cfg.flip_probability;
+    if flipped {
+        flip_y(scene);
+    }
+    let rotation = uniform(&cfg.global_rotation, rng);
+    rotate_z(scene, rotation);
+    let s = if cfg.global_scaling {
+        rng.random_range(cfg.scaling_range[0]..=cfg.scaling_range[1])
+    } else {
+        1.0
+    };
+    scale(scene, s);
+    let dz = if cfg.z_shift {
+        Normal::new(0.0, cfg.z_shift_sigma).expect("finite sigma").sample(rng)
+    } else {
+        0.0
+    };
+    shift_z(scene, dz);
+    AugmentDraw {
+        pasted,
+        box_rotations,
+        flipped,
+        rotation,
+        scale: s,
+        z_shift: dz,
+    }
+}
+
+/// Drops every point whose inclination `acos(z / r)` lies within `width / 2` of a randomly
+/// chosen point's (lingvo's `frustum_dropout`): about one laser ring. Returns the kept points
+/// and the dropped band's centre.
+pub fn ring_dropout(points: &[Point], width: f32, rng: &mut impl Rng) -> (Vec<Point>, f32) {
+    if points.is_empty() {
+        return (Vec::new(), 0.0);
+    }
+    let incl = |p: &Point| {
+        let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt().max(1e-6);
+        (p[2] / r).clamp(-1.0, 1.0).acos()
+    };
+    let centre = incl(&points[rng.random_range(0..points.len())]);
+    let kept = points
+        .iter()
+        .filter(|p| (incl(p) - centre).abs() >= 0.5 * width)
+        .copied()
+        .collect();
+    (kept, centre)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Box3d;
+    use crate::kitti::ObjectClass;
+    use rand::SeedableRng;
+
+    #[test]
+    fn identity_config_changes_nothing_and_draws_identity() {
+        let mut s = Scene {
+            points: vec![[1.0, 2.0, 3.0, 0.5]],
+            boxes: vec![Box3d::new(1.0, 2.0, 3.0, 1.0, 1.0, 1.0, 0.3)],
+            classes: vec![ObjectClass::Car],
+        };
+        let before = s.clone();
+        let d = augment(
+            &mut s,
+            &AugmentConfig::none(),
+            None,
+            &mut rand_chacha::ChaCha8Rng::seed_from_u64(1),
+        );
+        assert_eq!(s, before);
+        assert_eq!((d.flipped, d.rotation, d.scale, d.z_shift), (false, 0.0, 1.0, 0.0));
+    }
+
+    #[test]
+    fn draws_stay_in_their_ranges_and_replay() {
+        let cfg = AugmentConfig::default();
+        let mut flips = 0;
+        for seed in 0..200 {
+            let mut s = Scene {
+                points: vec![[5.0, 1.0, -1.0, 0.5]],
+                boxes: vec![Box3d::new(5.0, 1.0, -1.0, 4.0, 2.0, 1.5, 0.0)],
+                classes: vec![ObjectClass::Car],
+            };
+            let d = augment(&mut s, &cfg, None, &mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+            assert!(
+                d.rotation.abs() <= FRAC_PI_4
+                    && (0.95..=1.05).contains(&d.scale)
+                    && d.box_rotations[0].abs() <= PI / 20.0
+            );
+            flips += d.flipped as usize;
+            // Replaying the draw with the pure transforms gives the same scene.
+            let mut r = Scene {
+                points: vec![[5.0, 1.0, -1.0, 0.5]],
+                boxes: vec![Box3d::new(5.0, 1.0, -1.0, 4.0, 2.0, 1.5, 0.0)],
+                classes: vec![ObjectClass::Car],
+            };
+            rotate_box(&mut r, 0, d.box_rotations[0]);
+            if d.flipped {
+                flip_y(&mut r);
+            }
+            rotate_z(&mut r, d.rotation);
+            scale(&mut r, d.scale);
+            shift_z(&mut r, d.z_shift);
+            assert_eq!(r, s);
+        }
+        assert!((70..130).contains(&flips), "p = 0.5 flips: {flips}");
+    }
+
+    #[test]
+    fn ring_dropout_removes_one_band() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        // 64 rings, 0.4° apart, 100 points each.
+        let pts: Vec<Point> = (0..64)
+            .flat_map(|r| {
+                let e = (2.0 - 0.4 * r as f32).to_radians();
+                (0..100).map(move |k| {
+                    let a = k as f32 * 0.0628;
+                    [20.0 * e.cos() * a.cos(), 20.0 * e.cos() * a.sin(), 20.0 * e.sin(), 0.1]
+                })
+            })
+            .collect();
+        let (kept, _) = ring_dropout(&pts, 0.003, &mut rng);
+        assert_eq!(pts.len() - kept.len(), 100, "exactly one ring of 100 points");
+    }
+}

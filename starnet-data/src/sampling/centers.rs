@@ -1,0 +1,272 @@
+//! Center sampling (StarNet §3.1): uniform random, farthest point sampling in bird's-eye view
+//! (x, y) from a random first point, and seeded FPS, whose first centers are given positions
+//! (e.g. the previous frame's detections) from which FPS continues.
+//!
+//! When the pool holds fewer points than centers requested, every pool point is used once and
+//! the remaining slots repeat earlier centers with `valid = false`, so batch shapes stay fixed
+//! and the model and loss can ignore the repeats (lingvo pads the same way).
+
+use super::fps::fps;
+use crate::Point;
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// How centers are picked from the pool.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Sampler {
+    /// Uniformly at random without replacement.
+    Random,
+    /// Farthest point sampling in bird's-eye view.
+    Fps,
+}
+
+impl std::str::FromStr for Sampler {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "random" => Ok(Self::Random),
+            "fps" => Ok(Self::Fps),
+            _ => Err(format!("unknown sampler `{s}` (expected `random` or `fps`)")),
+        }
+    }
+}
+
+/// The z given to centers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CenterZ {
+    /// z = 0, as the authors' code (`fix_z_to_zero`); anchors carry a per-class z.
+    Zero,
+    /// The sampled point's own z.
+    Point,
+}
+
+/// Sampled centers `[C, 3]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Centers {
+    /// Center positions.
+    pub xyz: Vec<[f32; 3]>,
+    /// False for the repeats that fill slots beyond the pool's size.
+    pub valid: Vec<bool>,
+    /// How many leading centers came from seeds.
+    pub num_seeded: usize,
+}
+
+impl Centers {
+    /// Number of centers C.
+    pub fn len(&self) -> usize {
+        self.xyz.len()
+    }
+
+    /// Whether there is no center.
+    pub fn is_empty(&self) -> bool {
+        self.xyz.is_empty()
+    }
+}
+
+/// Picks `n` centers: the seeds first (at most `n`), then `n − seeds` from the pool points
+/// `pool` (indices into `points`) with `sampler`.
+pub fn sample_centers(
+    points: &[Point],
+    pool: &[usize],
+    n: usize,
+    sampler: Sampler,
+    seeds: &[[f32; 3]],
+    z: CenterZ,
+    rng: &mut impl Rng,
+) -> Centers {
+    let seeds = &seeds[..seeds.len().min(n)];
+    let want = n - seeds.len();
+    let picked = match sampler {
+        Sampler::Random => random_subset(pool.len(), want, rng),
+        Sampler::Fps => fps(points, pool, want, seeds, rng),
+    };
+    let zval = |p: &Point| if z == CenterZ::Zero { 0.0 } else { p[2] };
+    let mut xyz: Vec<[f32; 3]> = seeds
+        .iter()
+        .map(|s| [s[0], s[1], if z == CenterZ::Zero { 0.0 } else { s[2] }])
+        .collect();
+    xyz.extend(picked.iter().map(|&k| {
+        let p = &points[pool[k]];
+        [p[0], p[1], zval(p)]
+    }));
+    let mut valid = vec![true; xyz.len()];
+    let real = xyz.len();
+    for i in real..n {
+        // Repeat earlier centers; with no center at all, use the sensor origin.
+        xyz.push(if real > 0 { xyz[i % real] } else { [0.0; 3] });
+        valid.push(false);
+    }
+    Centers {
+        xyz,
+        valid,
+        num_seeded: seeds.len(),
+    }
+}
+
+/// `k` distinct indices of `0..n` (all of them, shuffled, if `k ≥ n`).
+fn random_subset(n: usize, k: usize, rng: &mut impl Rng) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..n).collect();
+    let k = k.min(n);
+    for i in 0..k {
+        let j = rng.random_range(i..n);
+        idx.swap(i, j);
+    }
+    idx.truncate(k);
+    idx
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    fn cloud(n: usize, seed: u64) -> Vec<Point> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..n)
+            .map(|_| {
+                [
+                    rng.random_range(-40.0..40.0),
+                    rng.random_range(-40.0..40.0),
+                    rng.random_range(-1.0..1.0),
+                    0.2,
+                ]
+            })
+            .collect()
+    }
+
+    fn min_pairwise(c: &Centers) -> f32 {
+        let mut m = f32::INFINITY;
+        for i in 0..c.len() {
+            for j in i + 1..c.len() {
+                m = m.min((c.xyz[i][0] - c.xyz[j][0]).hypot(c.xyz[i][1] - c.xyz[j][1]));
+            }
+        }
+        m
+    }
+
+    #[test]
+    fn fps_picks_no_point_twice_and_spreads_better_than_random() {
+        let pts = cloud(3000, 1);
+        let pool: Vec<usize> = (0..pts.len()).collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        let f = sample_centers(&pts, &pool, 256, Sampler::Fps, &[], CenterZ::Point, &mut rng);
+        let r = sample_centers(&pts, &pool, 256, Sampler::Random, &[], CenterZ::Point, &mut rng);
+        let mut seen = f
+            .xyz
+            .iter()
+            .map(|p| (p[0].to_bits(), p[1].to_bits()))
+            .collect::<Vec<_>>();
+        seen.sort();
+        seen.dedup();
+        assert_eq!(seen.len(), 256);
+        assert!(
+            min_pairwise(&f) > 2.0 * min_pairwise(&r),
+            "{} vs {}",
+            min_pairwise(&f),
+            min_pairwise(&r)
+        );
+        assert!(f.valid.iter().all(|v| *v));
+    }
+
+    #[test]
+    fn fps_never_repeats_even_with_coincident_points() {
+        let mut pts = cloud(50, 3);
+        pts.extend(pts.clone()); // every point twice
+        let pool: Vec<usize> = (0..pts.len()).collect();
+        let picks = fps(&pts, &pool, 100, &[], &mut ChaCha8Rng::seed_from_u64(4));
+        let mut sorted = picks.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(sorted.len(), 100, "all 100 pool points, none twice");
+    }
+
+    #[test]
+    fn fps_matches_a_brute_force_oracle() {
+        let pts = cloud(500, 5);
+        let pool: Vec<usize> = (0..pts.len()).collect();
+        let picks = fps(&pts, &pool, 40, &[[0.0, 0.0, 0.0]], &mut ChaCha8Rng::seed_from_u64(6));
+        // Oracle: the point maximising the distance to its nearest chosen center, naively.
+        let mut chosen = vec![[0.0f32, 0.0]];
+        for &p in &picks {
+            let far = (0..pts.len())
+                .map(|i| {
+                    (
+                        i,
+                        chosen
+                            .iter()
+                            .map(|c| (pts[i][0] - c[0]).powi(2) + (pts[i][1] - c[1]).powi(2))
+                            .fold(f32::INFINITY, f32::min),
+                    )
+                })
+                .fold((0, f32::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+            assert_eq!(p, far.0);
+            chosen.push([pts[p][0], pts[p][1]]);
+        }
+    }
+
+    #[test]
+    fn seeded_fps_returns_the_seeds_first() {
+        let pts = cloud(1000, 7);
+        let pool: Vec<usize> = (0..pts.len()).collect();
+        let seeds = [[1.0, 2.0, -0.5], [-3.0, 4.0, 0.5]];
+        let c = sample_centers(
+            &pts,
+            &pool,
+            10,
+            Sampler::Fps,
+            &seeds,
+            CenterZ::Point,
+            &mut ChaCha8Rng::seed_from_u64(8),
+        );
+        assert_eq!(c.num_seeded, 2);
+        assert_eq!(&c.xyz[..2], &seeds);
+        // FPS continues from the seeds: no pick lands within 5 m of them.
+        assert!(
+            c.xyz[2..]
+                .iter()
+                .all(|p| seeds.iter().all(|s| (p[0] - s[0]).hypot(p[1] - s[1]) > 5.0))
+        );
+        let z0 = sample_centers(
+            &pts,
+            &pool,
+            10,
+            Sampler::Fps,
+            &seeds,
+            CenterZ::Zero,
+            &mut ChaCha8Rng::seed_from_u64(8),
+        );
+        assert!(z0.xyz.iter().all(|p| p[2] == 0.0));
+    }
+
+    #[test]
+    fn small_pool_repeats_and_masks() {
+        let pts = cloud(5, 9);
+        for sampler in [Sampler::Fps, Sampler::Random] {
+            let c = sample_centers(
+                &pts,
+                &[0, 1, 2],
+                8,
+                sampler,
+                &[],
+                CenterZ::Point,
+                &mut ChaCha8Rng::seed_from_u64(1),
+            );
+            assert_eq!(c.len(), 8);
+            assert_eq!(c.valid, [true, true, true, false, false, false, false, false]);
+            assert_eq!(c.xyz[3], c.xyz[0]);
+        }
+        let none = sample_centers(
+            &pts,
+            &[],
+            4,
+            Sampler::Fps,
+            &[],
+            CenterZ::Point,
+            &mut ChaCha8Rng::seed_from_u64(1),
+        );
+        assert_eq!((none.len(), none.valid.iter().any(|v| *v)), (4, false));
+    }
+}

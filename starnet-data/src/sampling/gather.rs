@@ -1,0 +1,286 @@
+//! Neighbourhoods (StarNet §3.2): for each center, P points drawn uniformly at random without
+//! replacement among those within R (3D distance) of it, re-centred, padded and masked. Points
+//! are found through a spatial hash grid of R-sized cells in (x, y), never a dense C × N
+//! distance matrix.
+
+use super::Centers;
+use crate::Point;
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// Per-point input features F: `(x − cx, y − cy, z − cz, reflectance)`.
+pub const NUM_FEATURES: usize = 4;
+
+/// Neighbourhood size and radius.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GatherConfig {
+    /// Points per center P.
+    pub num_points: usize,
+    /// Radius R (m), 3D distance.
+    pub radius: f32,
+}
+
+/// The gathered neighbourhoods of C centers, ready to batch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Neighbourhoods {
+    /// C.
+    pub num_centers: usize,
+    /// P.
+    pub num_points: usize,
+    /// `[C, P, F]` features, zeros in padded slots.
+    pub features: Vec<f32>,
+    /// `[C, P]`, true for real points.
+    pub mask: Vec<bool>,
+    /// `[C, P]` indices into the cloud, `u32::MAX` in padded slots.
+    pub indices: Vec<u32>,
+}
+
+impl Neighbourhoods {
+    /// Real points of center `c`.
+    pub fn count(&self, c: usize) -> usize {
+        self.mask[c * self.num_points..(c + 1) * self.num_points]
+            .iter()
+            .filter(|m| **m)
+            .count()
+    }
+}
+
+/// Points bucketed by (x, y) cell in a dense grid over the cloud's extent, copied into cell
+/// order so a query reads contiguous memory.
+#[derive(Debug, Clone)]
+pub struct SpatialGrid {
+    cell: f32,
+    origin: [f32; 2],
+    dims: [usize; 2],
+    /// Cell `c` holds `sorted[starts[c]..starts[c + 1]]`.
+    starts: Vec<u32>,
+    /// The points in cell order, and their indices in the original cloud.
+    sorted: Vec<Point>,
+    order: Vec<u32>,
+}
+
+impl SpatialGrid {
+    /// Buckets `points` into square cells of side `cell` (a counting sort).
+    pub fn new(points: &[Point], cell: f32) -> Self {
+        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+        for p in points {
+            for a in 0..2 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        if points.is_empty() {
+            (lo, hi) = ([0.0; 2], [0.0; 2]);
+        }
+        let dims = [
+            ((hi[0] - lo[0]) / cell) as usize + 1,
+            ((hi[1] - lo[1]) / cell) as usize + 1,
+        ];
+        let cell_of = |p: &Point| {
+            (((p[0] - lo[0]) / cell) as usize).min(dims[0] - 1) * dims[1]
+                + (((p[1] - lo[1]) / cell) as usize).min(dims[1] - 1)
+        };
+        let mut starts = vec![0u32; dims[0] * dims[1] + 1];
+        let cells: Vec<usize> = points.iter().map(cell_of).collect();
+        cells.iter().for_each(|&c| starts[c + 1] += 1);
+        for c in 1..starts.len() {
+            starts[c] += starts[c - 1];
+        }
+        let mut fill = starts.clone();
+        let mut order = vec![0u32; points.len()];
+        for (i, &c) in cells.iter().enumerate() {
+            order[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+        let sorted = order.iter().map(|&i| points[i as usize]).collect();
+        Self {
+            cell,
+            origin: lo,
+            dims,
+            starts,
+            sorted,
+            order,
+        }
+    }
+
+    /// Appends to `out` the indices of the points within `radius` (3D) of `c`, in a fixed order.
+    pub fn within(&self, c: [f32; 3], radius: f32, out: &mut Vec<u32>) {
+        let r2 = radius * radius;
+        let range = |a: usize| {
+            let lo = ((c[a] - radius - self.origin[a]) / self.cell).floor().max(0.0) as usize;
+            let hi = ((c[a] + radius - self.origin[a]) / self.cell).floor();
+            (
+                lo,
+                if hi < 0.0 {
+                    None
+                } else {
+                    Some((hi as usize).min(self.dims[a] - 1))
+                },
+            )
+        };
+        let ((x0, Some(x1)), (y0, Some(y1))) = (range(0), range(1)) else {
+            return;
+        };
+        for gx in x0..=x1 {
+            let row = gx * self.dims[1];
+            let (s, e) = (
+                self.starts[row + y0] as usize,
+                self.starts[row + y1.max(y0) + 1] as usize,
+            );
+            // Cells y0..=y1 of one grid row are contiguous in `sorted`.
+            for k in s..e {
+                let p = &self.sorted[k];
+                let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+                if dx * dx + dy * dy + dz * dz <= r2 {
+                    out.push(self.order[k]);
+                }
+            }
+        }
+    }
+}
+
+/// Gathers the neighbourhood of every center.
+pub fn gather(points: &[Point], centers: &Centers, cfg: &GatherConfig, rng: &mut impl Rng) -> Neighbourhoods {
+    // Half-radius cells: a query scans about (2.5 R)² instead of (3 R)² around the center.
+    let grid = SpatialGrid::new(points, 0.5 * cfg.radius);
+    gather_with_grid(points, &grid, centers, cfg, rng)
+}
+
+/// [`gather`] with a prebuilt grid (cells of R/2 are fastest).
+pub fn gather_with_grid(
+    points: &[Point],
+    grid: &SpatialGrid,
+    centers: &Centers,
+    cfg: &GatherConfig,
+    rng: &mut impl Rng,
+) -> Neighbourhoods {
+    let (c_n, p_n) = (centers.len(), cfg.num_points);
+    let mut out = Neighbourhoods {
+        num_centers: c_n,
+        num_points: p_n,
+        features: vec![0.0; c_n * p_n * NUM_FEATURES],
+        mask: vec![false; c_n * p_n],
+        indices: vec![u32::MAX; c_n * p_n],
+    };
+    let mut candidates = Vec::new();
+    for (c, center) in centers.xyz.iter().enumerate() {
+        candidates.clear();
+        grid.within(*center, cfg.radius, &mut candidates);
+        // A uniform random subset without replacement: the first k of a partial shuffle.
+        let k = candidates.len().min(p_n);
+        for i in 0..k {
+            let j = rng.random_range(i..candidates.len());
+            candidates.swap(i, j);
+        }
+        for (slot, &pi) in candidates[..k].iter().enumerate() {
+            let p = &points[pi as usize];
+            let at = c * p_n + slot;
+            out.mask[at] = true;
+            out.indices[at] = pi;
+            out.features[at * NUM_FEATURES..(at + 1) * NUM_FEATURES].copy_from_slice(&[
+                p[0] - center[0],
+                p[1] - center[1],
+                p[2] - center[2],
+                p[3],
+            ]);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::{CenterZ, Sampler, sample_centers};
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    fn cloud(n: usize) -> Vec<Point> {
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        (0..n)
+            .map(|_| {
+                [
+                    rng.random_range(-20.0..20.0),
+                    rng.random_range(-20.0..20.0),
+                    rng.random_range(-2.0..1.0),
+                    rng.random_range(0.0..1.0),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn grid_query_equals_brute_force() {
+        let pts = cloud(5000);
+        let grid = SpatialGrid::new(&pts, 0.7);
+        let mut got = Vec::new();
+        for c in [[0.0, 0.0, 0.0], [19.5, -19.5, -1.0], [3.3, 7.1, 0.5]] {
+            got.clear();
+            grid.within(c, 2.0, &mut got);
+            got.sort();
+            let want: Vec<u32> = (0..pts.len() as u32)
+                .filter(|&i| {
+                    let p = pts[i as usize];
+                    (p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2) <= 4.0
+                })
+                .collect();
+            assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn gathered_points_lie_within_r_and_masks_match_counts() {
+        let pts = cloud(20000);
+        let pool: Vec<usize> = (0..pts.len()).collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        let centers = sample_centers(&pts, &pool, 64, Sampler::Fps, &[], CenterZ::Point, &mut rng);
+        let cfg = GatherConfig {
+            num_points: 32,
+            radius: 1.0,
+        };
+        let n = gather(&pts, &centers, &cfg, &mut rng);
+        let grid = SpatialGrid::new(&pts, 1.0);
+        let mut all = Vec::new();
+        for c in 0..64 {
+            all.clear();
+            grid.within(centers.xyz[c], 1.0, &mut all);
+            assert_eq!(n.count(c), all.len().min(32), "center {c}");
+            let mut idx: Vec<u32> = (0..32)
+                .filter(|&s| n.mask[c * 32 + s])
+                .map(|s| n.indices[c * 32 + s])
+                .collect();
+            for (s, &i) in idx.iter().enumerate() {
+                let f = &n.features[(c * 32 + s) * 4..(c * 32 + s + 1) * 4];
+                assert!(f[0] * f[0] + f[1] * f[1] + f[2] * f[2] <= 1.0 + 1e-5);
+                assert_eq!(f[3], pts[i as usize][3]);
+            }
+            idx.sort();
+            idx.dedup();
+            assert_eq!(idx.len(), n.count(c), "no point twice");
+            // Padded slots hold zeros.
+            assert!((n.count(c)..32).all(|s| n.features[(c * 32 + s) * 4..(c * 32 + s + 1) * 4] == [0.0; 4]));
+        }
+    }
+
+    #[test]
+    fn sampling_is_uniform_among_the_candidates() {
+        // 10 points within R, 5 slots: each point should be picked about half the time.
+        let pts: Vec<Point> = (0..10).map(|i| [0.05 * i as f32, 0.0, 0.0, 0.0]).collect();
+        let centers = Centers {
+            xyz: vec![[0.0; 3]],
+            valid: vec![true],
+            num_seeded: 0,
+        };
+        let cfg = GatherConfig {
+            num_points: 5,
+            radius: 1.0,
+        };
+        let mut hits = [0u32; 10];
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for _ in 0..4000 {
+            let n = gather(&pts, &centers, &cfg, &mut rng);
+            n.indices.iter().for_each(|&i| hits[i as usize] += 1);
+        }
+        assert!(hits.iter().all(|&h| (1800..2200).contains(&h)), "{hits:?}");
+    }
+}

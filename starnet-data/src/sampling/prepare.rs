@@ -1,0 +1,115 @@
+//! One frame from disk to model input, in the authors' order: augmentation (training only),
+//! the center pool, center sampling, the one-ring dropout (training only), gathering.
+
+use super::{
+    CenterPoolConfig, CenterZ, Centers, GatherConfig, Neighbourhoods, Sampler, center_pool, gather, sample_centers,
+};
+use crate::augment::{AugmentConfig, AugmentDraw, GtDatabase, Scene, augment, ring_dropout};
+use crate::kitti::{Frame, ObjectClass};
+use crate::{Box3d, Point};
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// Sampling and gathering settings (the defaults are the authors' KITTI car settings, with
+/// fewer points per center: P = 512 does not fit a CPU budget).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PipelineConfig {
+    /// Which points may become centers.
+    pub pool: CenterPoolConfig,
+    /// How centers are picked.
+    pub sampler: Sampler,
+    /// Centers per frame C.
+    pub num_centers: usize,
+    /// The z given to centers.
+    pub center_z: CenterZ,
+    /// Neighbourhood size and radius.
+    pub gather: GatherConfig,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            pool: CenterPoolConfig::kitti(),
+            sampler: Sampler::Fps,
+            num_centers: 768,
+            center_z: CenterZ::Zero,
+            gather: GatherConfig {
+                num_points: 64,
+                radius: 3.75,
+            },
+        }
+    }
+}
+
+/// A frame ready to batch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PreparedFrame {
+    /// Frame id.
+    pub id: String,
+    /// The (augmented) cloud, after the ring dropout.
+    pub points: Vec<Point>,
+    /// Centers `[C, 3]`.
+    pub centers: Centers,
+    /// Neighbourhoods `[C, P, F]` and masks `[C, P]`.
+    pub neighbourhoods: Neighbourhoods,
+    /// Labelled boxes (every class but DontCare), augmented like the points.
+    pub boxes: Vec<Box3d>,
+    /// Their classes.
+    pub classes: Vec<ObjectClass>,
+    /// What augmentation drew, when it ran.
+    pub draw: Option<AugmentDraw>,
+}
+
+/// Training-time augmentation for [`prepare_frame`].
+#[derive(Debug, Clone, Copy)]
+pub struct Augmentation<'a> {
+    /// The steps.
+    pub config: &'a AugmentConfig,
+    /// The ground-truth database, for the paste step.
+    pub database: Option<&'a GtDatabase>,
+}
+
+/// Prepares `frame`: augments it when `augmentation` is given, then samples `cfg.num_centers`
+/// centers (the `seeds` first) and gathers their neighbourhoods.
+pub fn prepare_frame(
+    frame: &Frame,
+    cfg: &PipelineConfig,
+    augmentation: Option<Augmentation<'_>>,
+    seeds: &[[f32; 3]],
+    rng: &mut impl Rng,
+) -> PreparedFrame {
+    let (boxes, classes): (Vec<Box3d>, Vec<ObjectClass>) =
+        frame.labelled_boxes().into_iter().map(|(o, b)| (b, o.class)).unzip();
+    let mut scene = Scene {
+        points: frame.points.clone(),
+        boxes,
+        classes,
+    };
+    let draw = augmentation.map(|a| augment(&mut scene, a.config, a.database, rng));
+    // Like lingvo, the frustum test uses the frame's own calibration on the augmented points.
+    let pool = center_pool(&scene.points, &cfg.pool, Some((&frame.calib, frame.image_size)));
+    let centers = sample_centers(
+        &scene.points,
+        &pool,
+        cfg.num_centers,
+        cfg.sampler,
+        seeds,
+        cfg.center_z,
+        rng,
+    );
+    let points = match augmentation {
+        Some(a) if a.config.ring_dropout => ring_dropout(&scene.points, a.config.ring_dropout_width, rng).0,
+        _ => scene.points,
+    };
+    let neighbourhoods = gather(&points, &centers, &cfg.gather, rng);
+    PreparedFrame {
+        id: frame.id.clone(),
+        points,
+        centers,
+        neighbourhoods,
+        boxes: scene.boxes,
+        classes: scene.classes,
+        draw,
+    }
+}

@@ -1,0 +1,52 @@
+//! `starnet coverage`: how many objects the sampled centers can reach, per sampler and count.
+
+use crate::Result;
+use crate::render::{LinePlot, Series};
+use starnet_data::kitti::{KittiDataset, ObjectClass};
+use starnet_data::sampling::{CenterPoolConfig, CoverageConfig, CoverageTable, Sampler, coverage};
+use std::path::Path;
+
+/// Measures coverage on `data` (optionally one split), prints the table and writes a PNG plot.
+pub fn run_coverage(
+    data: &Path,
+    split: Option<&str>,
+    samples: &[usize],
+    samplers: &[Sampler],
+    all_around: bool,
+    plot: &Path,
+    seed: u64,
+) -> Result<CoverageTable> {
+    let ds = KittiDataset::open(data, split)?;
+    let cfg = CoverageConfig {
+        samples: samples.to_vec(),
+        samplers: samplers.to_vec(),
+        pool: if all_around {
+            CenterPoolConfig::all_around(80.0)
+        } else {
+            CenterPoolConfig::kitti()
+        },
+        min_points: 5,
+        iou: 0.5,
+        classes: vec![ObjectClass::Car, ObjectClass::Pedestrian, ObjectClass::Cyclist],
+    };
+    let table = coverage(&ds, &cfg, seed)?;
+    print!("{table}");
+    let chart = LinePlot {
+        title: format!("OBJECT COVERAGE, {} OBJECTS WITH >= 5 POINTS", table.objects),
+        x_label: "CENTERS PER FRAME".into(),
+        y_label: "% OBJECTS WITH AN ANCHOR AT BEV IOU > 0.5".into(),
+        series: table
+            .rows
+            .iter()
+            .map(|(s, v)| Series {
+                name: format!("{s:?}").to_uppercase(),
+                points: samples.iter().map(|&n| n as f64).zip(v.iter().copied()).collect(),
+            })
+            .collect(),
+        log_x: true,
+        y_range: Some((0.0, 100.0)),
+    };
+    chart.render().save_png(plot)?;
+    println!("wrote {}", plot.display());
+    Ok(table)
+}
