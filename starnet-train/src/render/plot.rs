@@ -60,7 +60,10 @@ fn ticks(lo: f64, hi: f64) -> Vec<f64> {
         .unwrap_or(10.0 * mag);
     // Ticks as whole multiples of the step, not a running sum that drifts (0.30000000000000004).
     let first = (lo / step).ceil() as i64;
-    (first..).map(|k| k as f64 * step).take_while(|t| *t <= hi + 1e-9 * span).collect()
+    (first..)
+        .map(|k| k as f64 * step)
+        .take_while(|t| *t <= hi + 1e-9 * span)
+        .collect()
 }
 
 fn label(v: f64) -> String {
@@ -169,7 +172,12 @@ mod tests {
         assert_eq!(ticks(0.0, 100.0), vec![0.0, 20.0, 40.0, 60.0, 80.0, 100.0]);
         let t = ticks(0.13, 0.61);
         assert_eq!(t.len(), 5);
-        assert!(t.iter().zip([0.2, 0.3, 0.4, 0.5, 0.6]).all(|(a, b)| (a - b).abs() < 1e-12), "{t:?}");
+        assert!(
+            t.iter()
+                .zip([0.2, 0.3, 0.4, 0.5, 0.6])
+                .all(|(a, b)| (a - b).abs() < 1e-12),
+            "{t:?}"
+        );
     }
 
     #[test]
