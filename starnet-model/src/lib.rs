@@ -9,4 +9,7 @@
 
 #![warn(missing_docs)]
 
+pub mod assign;
 pub mod backend;
+pub mod coder;
+pub mod nms;

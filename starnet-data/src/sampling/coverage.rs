@@ -48,13 +48,12 @@ fn first_cover(centers: &[[f32; 3]], objects: &[(crate::Box3d, AnchorGrid)], iou
     objects
         .iter()
         .map(|(b, grid)| {
-            let reach =
-                b.bev_radius() + grid.extent * std::f32::consts::SQRT_2 + 0.5 * grid.size[0].hypot(grid.size[1]);
+            let reach = b.bev_radius() + grid.extent * std::f32::consts::SQRT_2 + grid.max_radius();
             centers
                 .iter()
                 .position(|c| {
                     (c[0] - b.x).hypot(c[1] - b.y) <= reach
-                        && grid.anchors_around([c[0], c[1]]).iter().any(|a| iou_bev(a, b) > iou)
+                        && grid.anchors_around(*c).iter().any(|a| iou_bev(a, b) > iou)
                 })
                 .unwrap_or(usize::MAX)
         })

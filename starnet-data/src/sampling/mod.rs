@@ -9,7 +9,7 @@ mod gather;
 mod pool;
 mod prepare;
 
-pub use anchors::AnchorGrid;
+pub use anchors::{AnchorGrid, AnchorPrior};
 pub use centers::{CenterZ, Centers, Sampler, sample_centers};
 pub use coverage::{CoverageConfig, CoverageTable, coverage};
 pub use gather::{GatherConfig, NUM_FEATURES, Neighbourhoods, SpatialGrid, gather, gather_with_grid};

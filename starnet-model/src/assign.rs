@@ -1,0 +1,208 @@
+//! Anchor target assignment (StarNet §3.3, lingvo `Utils3D.AssignAnchors`), on the CPU side so
+//! it runs in data-loader threads. Each anchor takes the ground-truth box it overlaps most (rotated
+//! BEV IoU): foreground at IoU ≥ `fg_iou`, background below `bg_iou`, ignored in between. An
+//! object that no anchor reached is then force-matched to its best anchor, if that IoU is above 0
+//! and the anchor is not already foreground for another object.
+//!
+//! Weights follow the authors' normalisation: each anchor counts `1 / (C · max(1, n_fg))`, where
+//! `n_fg` is the number of foreground anchors at its center, so every center weighs the same.
+
+use crate::coder::encode;
+use serde::{Deserialize, Serialize};
+use starnet_data::Box3d;
+use starnet_data::geometry::iou_bev;
+
+/// Assignment thresholds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AssignConfig {
+    /// Foreground at IoU ≥ this (0.6).
+    pub fg_iou: f32,
+    /// Background at IoU < this (0.45); between the two, ignored.
+    pub bg_iou: f32,
+    /// Force-match objects that got no foreground anchor.
+    pub force_match: bool,
+}
+
+impl Default for AssignConfig {
+    fn default() -> Self {
+        Self {
+            fg_iou: 0.6,
+            bg_iou: 0.45,
+            force_match: true,
+        }
+    }
+}
+
+/// Targets of the `C · A` anchors of one frame (center-major, like the anchors).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnchorTargets {
+    /// Per anchor: the matched object's class index for foreground, −1 otherwise.
+    pub class: Vec<i32>,
+    /// Per anchor: the matched object, −1 if none.
+    pub matched: Vec<i32>,
+    /// Per anchor: classification weight (0 when ignored or at an invalid center).
+    pub cls_weight: Vec<f32>,
+    /// Per anchor: regression weight (foreground only).
+    pub reg_weight: Vec<f32>,
+    /// Per anchor: encoded residuals of the matched box (zeros elsewhere).
+    pub residuals: Vec<[f32; 7]>,
+}
+
+impl AnchorTargets {
+    /// Number of foreground anchors.
+    pub fn num_foreground(&self) -> usize {
+        self.class.iter().filter(|c| **c >= 0).count()
+    }
+}
+
+/// Assigns targets to `anchors` (`C · A` boxes, center-major, `a` per center) from objects
+/// `boxes` with class indices `classes`. Anchors of centers with `valid[c] == false` get no weight.
+pub fn assign_targets(
+    anchors: &[Box3d],
+    a: usize,
+    valid: &[bool],
+    boxes: &[Box3d],
+    classes: &[usize],
+    cfg: &AssignConfig,
+) -> AnchorTargets {
+    let n = anchors.len();
+    let c_n = n / a.max(1);
+    // Best object per anchor, and IoU matrix entries kept sparse via the bounding-circle filter.
+    let mut best = vec![(-1i32, 0f32); n];
+    let mut best_anchor = vec![(usize::MAX, 0f32); boxes.len()];
+    for (i, an) in anchors.iter().enumerate() {
+        for (j, b) in boxes.iter().enumerate() {
+            let iou = iou_bev(an, b);
+            if iou > best[i].1 {
+                best[i] = (j as i32, iou);
+            }
+            if iou > best_anchor[j].1 {
+                best_anchor[j] = (i, iou);
+            }
+        }
+    }
+    let mut matched: Vec<i32> = best
+        .iter()
+        .map(|&(j, iou)| if iou >= cfg.fg_iou { j } else { -1 })
+        .collect();
+    let mut ignored: Vec<bool> = best
+        .iter()
+        .map(|&(_, iou)| iou >= cfg.bg_iou && iou < cfg.fg_iou)
+        .collect();
+    if cfg.force_match {
+        for (j, &(i, iou)) in best_anchor.iter().enumerate() {
+            let has_fg = matched.contains(&(j as i32));
+            if !has_fg && iou > 0.0 && matched[i] < 0 {
+                matched[i] = j as i32;
+                ignored[i] = false;
+            }
+        }
+    }
+    let mut out = AnchorTargets {
+        class: vec![-1; n],
+        matched: matched.clone(),
+        cls_weight: vec![0.0; n],
+        reg_weight: vec![0.0; n],
+        residuals: vec![[0.0; 7]; n],
+    };
+    for c in 0..c_n {
+        if !valid.get(c).copied().unwrap_or(true) {
+            out.matched[c * a..(c + 1) * a].fill(-1);
+            continue;
+        }
+        let range = c * a..(c + 1) * a;
+        let fg = matched[range.clone()].iter().filter(|m| **m >= 0).count();
+        let w = 1.0 / (c_n as f32 * fg.max(1) as f32);
+        for i in range {
+            if let Ok(j) = usize::try_from(matched[i]) {
+                out.class[i] = classes[j] as i32;
+                out.reg_weight[i] = w;
+                out.cls_weight[i] = w;
+                out.residuals[i] = encode(&boxes[j], &anchors[i]);
+            } else if !ignored[i] {
+                out.cls_weight[i] = w;
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use starnet_data::sampling::AnchorGrid;
+
+    fn anchors(centers: &[[f32; 3]]) -> (Vec<Box3d>, usize) {
+        let g = AnchorGrid::kitti_car();
+        (centers.iter().flat_map(|c| g.anchors_around(*c)).collect(), g.len())
+    }
+
+    #[test]
+    fn foreground_background_and_the_ignore_band() {
+        let (an, a) = anchors(&[[10.0, 0.0, 0.0]]);
+        // An object equal to the centre anchor (index 48): IoU 1 there.
+        let car = an[48];
+        let t = assign_targets(&an, a, &[true], &[car], &[0], &AssignConfig::default());
+        assert_eq!(t.class[48], 0);
+        assert!(t.residuals[48].iter().all(|r| r.abs() < 1e-6));
+        for (i, anchor) in an.iter().enumerate() {
+            let iou = iou_bev(anchor, &car);
+            match t.class[i] {
+                0 => assert!(iou >= 0.6, "{i}: fg at {iou}"),
+                _ if iou >= 0.45 => assert_eq!(t.cls_weight[i], 0.0, "{i}: IoU {iou} is in the ignore band"),
+                _ => assert!(t.cls_weight[i] > 0.0, "{i}: background at {iou}"),
+            }
+        }
+        // Weights: 1 / (C · n_fg).
+        let fg = t.num_foreground();
+        assert!((t.reg_weight[48] - 1.0 / fg as f32).abs() < 1e-7);
+    }
+
+    #[test]
+    fn force_matching_fires_only_under_both_conditions() {
+        let (an, a) = anchors(&[[10.0, 0.0, 0.0]]);
+        // A small, shifted object: best IoU well below 0.6 but above 0.
+        let ped = Box3d::new(11.3, 0.4, -1.0, 0.8, 0.6, 1.7, 0.3);
+        let (best_i, best_iou) = (0..a)
+            .map(|i| (i, iou_bev(&an[i], &ped)))
+            .fold((0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+        assert!(best_iou > 0.0 && best_iou < 0.45);
+        let t = assign_targets(&an, a, &[true], &[ped], &[0], &AssignConfig::default());
+        assert_eq!(
+            (t.num_foreground(), t.class[best_i]),
+            (1, 0),
+            "forced onto its best anchor"
+        );
+        let off = AssignConfig {
+            force_match: false,
+            ..Default::default()
+        };
+        assert_eq!(assign_targets(&an, a, &[true], &[ped], &[0], &off).num_foreground(), 0);
+        // Condition 2: the best anchor is already foreground for another object.
+        let car = an[best_i];
+        let t = assign_targets(&an, a, &[true], &[car, ped], &[0, 1], &AssignConfig::default());
+        assert_eq!(t.matched[best_i], 0, "the car keeps its anchor");
+        assert!(!t.matched.contains(&1), "the pedestrian stays unmatched");
+    }
+
+    #[test]
+    fn an_object_far_from_every_anchor_stays_unmatched() {
+        let (an, a) = anchors(&[[10.0, 0.0, 0.0], [20.0, 0.0, 0.0]]);
+        let far = Box3d::new(50.0, 30.0, -1.0, 3.9, 1.6, 1.5, 0.0);
+        let t = assign_targets(&an, a, &[true, true], &[far], &[0], &AssignConfig::default());
+        assert_eq!(t.num_foreground(), 0);
+        assert!(
+            t.cls_weight.iter().all(|w| (*w - 1.0 / 2.0).abs() < 1e-7),
+            "all background, 1/(C·1) each"
+        );
+    }
+
+    #[test]
+    fn invalid_centers_carry_no_weight() {
+        let (an, a) = anchors(&[[10.0, 0.0, 0.0], [10.0, 0.0, 0.0]]);
+        let t = assign_targets(&an, a, &[true, false], &[an[48]], &[0], &AssignConfig::default());
+        assert!(t.cls_weight[a..].iter().all(|w| *w == 0.0) && t.class[a..].iter().all(|c| *c < 0));
+        assert!(t.class[48] == 0);
+    }
+}

@@ -1,0 +1,163 @@
+//! Decoding's last step: per-class greedy non-maximum suppression with oriented 3D IoU
+//! (lingvo `NonMaxSuppression3D`), and the stateful variant of the streaming paper (§3.3),
+//! which also suppresses against the boxes kept in the previous k calls.
+
+use serde::{Deserialize, Serialize};
+use starnet_data::Box3d;
+use starnet_data::geometry::iou_3d;
+use std::collections::VecDeque;
+
+/// A scored box.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Detection {
+    /// The box, LiDAR frame.
+    pub b: Box3d,
+    /// Class index.
+    pub class: usize,
+    /// Score in [0, 1].
+    pub score: f32,
+}
+
+/// Thresholds of one class.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClassNms {
+    /// A box is suppressed by a kept box of its class with 3D IoU above this.
+    pub iou: f32,
+    /// Boxes scoring below this are dropped first.
+    pub score: f32,
+}
+
+/// NMS settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NmsConfig {
+    /// Per class index.
+    pub per_class: Vec<ClassNms>,
+    /// At most this many boxes are kept, best scores first (512).
+    pub max_boxes: usize,
+}
+
+/// Greedy per-class NMS: boxes are taken best score first (ties by input order) and kept unless
+/// a kept box of the same class overlaps them above the class's IoU threshold. Output sorted by
+/// descending score, at most `max_boxes`.
+pub fn nms(dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
+    let mut order: Vec<usize> = (0..dets.len())
+        .filter(|&i| {
+            cfg.per_class
+                .get(dets[i].class)
+                .is_some_and(|c| dets[i].score >= c.score)
+        })
+        .collect();
+    order.sort_by(|&i, &j| dets[j].score.total_cmp(&dets[i].score).then(i.cmp(&j)));
+    let mut kept: Vec<Detection> = Vec::new();
+    for i in order {
+        if kept.len() == cfg.max_boxes {
+            break;
+        }
+        let d = dets[i];
+        let thr = cfg.per_class[d.class].iou;
+        if kept.iter().all(|k| k.class != d.class || iou_3d(&k.b, &d.b) <= thr) {
+            kept.push(d);
+        }
+    }
+    kept
+}
+
+/// NMS that remembers the boxes it kept in its last `k` calls and suppresses new boxes that
+/// overlap them (for the slices of a streaming sweep). `reset` starts a new sweep.
+#[derive(Debug, Clone)]
+pub struct StatefulNms {
+    k: usize,
+    history: VecDeque<Vec<Detection>>,
+}
+
+impl StatefulNms {
+    /// Remembers the last `k` calls (the streaming paper uses k = 1).
+    pub fn new(k: usize) -> Self {
+        Self {
+            k,
+            history: VecDeque::new(),
+        }
+    }
+
+    /// Forgets every previous call.
+    pub fn reset(&mut self) {
+        self.history.clear();
+    }
+
+    /// NMS within `dets`, then against the remembered boxes of the same class.
+    pub fn step(&mut self, dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
+        let kept: Vec<Detection> = nms(dets, cfg)
+            .into_iter()
+            .filter(|d| {
+                let thr = cfg.per_class[d.class].iou;
+                self.history
+                    .iter()
+                    .flatten()
+                    .all(|h| h.class != d.class || iou_3d(&h.b, &d.b) <= thr)
+            })
+            .collect();
+        if self.k > 0 {
+            self.history.push_back(kept.clone());
+            while self.history.len() > self.k {
+                self.history.pop_front();
+            }
+        }
+        kept
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn det(x: f32, class: usize, score: f32) -> Detection {
+        Detection {
+            b: Box3d::new(x, 0.0, -1.0, 4.0, 1.6, 1.5, 0.0),
+            class,
+            score,
+        }
+    }
+
+    fn cfg(max: usize) -> NmsConfig {
+        NmsConfig {
+            per_class: vec![ClassNms { iou: 0.1, score: 0.2 }; 2],
+            max_boxes: max,
+        }
+    }
+
+    #[test]
+    fn suppresses_overlaps_keeps_other_classes_and_honours_limits() {
+        let dets = [
+            det(0.0, 0, 0.9),
+            det(0.5, 0, 0.8),
+            det(0.5, 1, 0.7),
+            det(10.0, 0, 0.6),
+            det(20.0, 0, 0.1),
+        ];
+        let kept = nms(&dets, &cfg(10));
+        let scores: Vec<f32> = kept.iter().map(|d| d.score).collect();
+        assert_eq!(
+            scores,
+            [0.9, 0.7, 0.6],
+            "0.8 overlaps 0.9; the class-1 box survives; 0.1 is below the score threshold"
+        );
+        assert_eq!(nms(&dets, &cfg(2)).len(), 2);
+    }
+
+    #[test]
+    fn stateful_nms_suppresses_a_previous_calls_box_and_forgets_after_k() {
+        let mut s = StatefulNms::new(1);
+        let c = cfg(10);
+        assert_eq!(s.step(&[det(0.0, 0, 0.9)], &c).len(), 1);
+        // The same object again in the next slice, even with a higher score: suppressed.
+        assert!(s.step(&[det(0.2, 0, 0.95)], &c).is_empty());
+        // k = 1: the slice before last is forgotten (the last call kept nothing).
+        assert_eq!(s.step(&[det(0.2, 0, 0.95)], &c).len(), 1);
+        s.reset();
+        assert_eq!(s.step(&[det(0.2, 0, 0.95)], &c).len(), 1);
+        // Other classes are not suppressed.
+        assert_eq!(s.step(&[det(0.2, 1, 0.95)], &c).len(), 1);
+    }
+}
