@@ -25,10 +25,24 @@ pub struct AssignConfig {
 }
 
 impl Default for AssignConfig {
+    /// The paper's thresholds: foreground ≥ 0.6, background < 0.45.
     fn default() -> Self {
         Self {
             fg_iou: 0.6,
             bg_iou: 0.45,
+            force_match: true,
+        }
+    }
+}
+
+impl AssignConfig {
+    /// The authors' KITTI car setting (lingvo `StarNetCarModel0701`): foreground ≥ 0.567 and no
+    /// ignore band (bg ≥ fg), so every other anchor is trained as background and none is left
+    /// free to fire.
+    pub fn kitti_car() -> Self {
+        Self {
+            fg_iou: 0.567,
+            bg_iou: 1.0,
             force_match: true,
         }
     }
@@ -184,6 +198,13 @@ mod tests {
         let t = assign_targets(&an, a, &[true], &[car, ped], &[0, 1], &AssignConfig::default());
         assert_eq!(t.matched[best_i], 0, "the car keeps its anchor");
         assert!(!t.matched.contains(&1), "the pedestrian stays unmatched");
+    }
+
+    #[test]
+    fn without_an_ignore_band_every_anchor_is_trained() {
+        let (an, a) = anchors(&[[10.0, 0.0, 0.0]]);
+        let t = assign_targets(&an, a, &[true], &[an[48]], &[0], &AssignConfig::kitti_car());
+        assert!(t.cls_weight.iter().all(|w| *w > 0.0));
     }
 
     #[test]

@@ -11,5 +11,9 @@
 
 pub mod assign;
 pub mod backend;
+pub mod batch;
 pub mod coder;
+pub mod flops;
+pub mod loss;
 pub mod nms;
+pub mod nn;

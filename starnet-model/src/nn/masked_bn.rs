@@ -1,0 +1,129 @@
+//! Batch normalisation that ignores padded rows (lingvo's padding-aware BN): the batch mean
+//! and variance are taken over real rows only, padded outputs are set to 0, and running
+//! statistics (for evaluation) are updated from the real rows. Burn's stock `BatchNorm` has no
+//! mask. Mode follows Burn's convention: batch statistics on an autodiff device with the
+//! training flag on (`model.valid()` turns both off), running statistics otherwise.
+
+use burn::module::{Flag, Module, Param, RunningState};
+use burn::nn::Initializer;
+use burn::prelude::*;
+
+/// Configuration of [`MaskedBatchNorm`].
+#[derive(Config, Debug)]
+pub struct MaskedBatchNormConfig {
+    /// Channels.
+    pub num_features: usize,
+    /// Added to the variance (lingvo: 1e-3).
+    #[config(default = 1e-3)]
+    pub epsilon: f64,
+    /// Weight of a new batch in the running statistics (lingvo's decay 0.99 → 0.01).
+    #[config(default = 0.01)]
+    pub momentum: f64,
+}
+
+/// Masked batch normalisation over rows `[N, D]`.
+#[derive(Module, Debug)]
+pub struct MaskedBatchNorm {
+    /// Scale γ `[D]`.
+    pub gamma: Param<Tensor<1>>,
+    /// Shift β `[D]`.
+    pub beta: Param<Tensor<1>>,
+    /// Training flag (off after `valid()`).
+    pub training: Param<Flag>,
+    /// Running mean `[D]`.
+    pub running_mean: RunningState<Tensor<1>>,
+    /// Running (biased) variance `[D]`.
+    pub running_var: RunningState<Tensor<1>>,
+    /// See the config.
+    pub momentum: f64,
+    /// See the config.
+    pub epsilon: f64,
+}
+
+impl MaskedBatchNormConfig {
+    /// Builds the layer: γ = 1, β = 0, running mean 0 and variance 1.
+    pub fn init(&self, device: &Device) -> MaskedBatchNorm {
+        assert!(self.num_features > 0, "num_features must be positive");
+        MaskedBatchNorm {
+            gamma: Initializer::Ones.init([self.num_features], device),
+            beta: Initializer::Zeros.init([self.num_features], device),
+            training: Param::from_bool(true),
+            running_mean: RunningState::new(Tensor::zeros([self.num_features], device)),
+            running_var: RunningState::new(Tensor::ones([self.num_features], device)),
+            momentum: self.momentum,
+            epsilon: self.epsilon,
+        }
+    }
+}
+
+impl MaskedBatchNorm {
+    /// # Shapes
+    /// - `x`: `[N, D]`
+    /// - `mask`: `[N, 1]`, 1.0 for real rows and 0.0 for padding
+    /// - output: `[N, D]`, zero in padded rows
+    pub fn forward(&self, x: Tensor<2>, mask: Tensor<2>) -> Tensor<2> {
+        let [_, d] = x.dims();
+        let (mean, var) = if x.device().is_autodiff() && self.training.is_enabled() {
+            let count = mask.clone().sum().clamp_min(1.0).reshape([1, 1]);
+            let mean = (x.clone() * mask.clone()).sum_dim(0) / count.clone(); // [1, D]
+            let centred = (x.clone() - mean.clone()) * mask.clone();
+            let var = centred.powi_scalar(2).sum_dim(0) / count; // [1, D]
+            let update = |state: &RunningState<Tensor<1>>, batch: Tensor<2>| {
+                let old = state.value_sync().to_device(&batch.device());
+                state.update(
+                    (old.mul_scalar(1.0 - self.momentum) + batch.detach().reshape([d]).mul_scalar(self.momentum))
+                        .detach(),
+                );
+            };
+            update(&self.running_mean, mean.clone());
+            update(&self.running_var, var.clone());
+            (mean, var)
+        } else {
+            let dev = x.device();
+            (
+                self.running_mean.value().to_device(&dev).reshape([1, d]),
+                self.running_var.value().to_device(&dev).reshape([1, d]),
+            )
+        };
+        let scale = self.gamma.val().reshape([1, d]) / (var + self.epsilon).sqrt();
+        ((x - mean) * scale + self.beta.val().reshape([1, d])) * mask
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backend::default_device;
+
+    fn data(dev: &Device) -> (Tensor<2>, Tensor<2>) {
+        // Rows 0..3 real, rows 3..5 padding holding large junk.
+        let x = Tensor::<2>::from_floats([[1.0, 10.0], [2.0, 20.0], [3.0, 30.0], [1e3, -1e3], [7.0, 7.0]], dev);
+        let m = Tensor::<2>::from_floats([[1.0], [1.0], [1.0], [0.0], [0.0]], dev);
+        (x, m)
+    }
+
+    #[test]
+    fn training_uses_real_rows_only_and_zeroes_padding() {
+        let dev = default_device().autodiff();
+        let bn = MaskedBatchNormConfig::new(2).with_epsilon(0.0).init(&dev);
+        let (x, m) = data(&dev);
+        let y: Vec<f32> = bn.forward(x, m).into_data().iter::<f32>().collect();
+        // Real column 0 is (1, 2, 3): mean 2, biased variance 2/3 → (x − 2)/√(2/3).
+        let s = (2.0f32 / 3.0).sqrt();
+        let want = [-1.0 / s, -1.0 / s, 0.0, 0.0, 1.0 / s, 1.0 / s, 0.0, 0.0, 0.0, 0.0];
+        assert!(y.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-5), "{y:?}");
+        // Running stats moved 1 % towards (2, 20) and (2/3, 200/3).
+        let rm: Vec<f32> = bn.running_mean.value_sync().into_data().iter::<f32>().collect();
+        assert!((rm[0] - 0.02).abs() < 1e-6 && (rm[1] - 0.2).abs() < 1e-5, "{rm:?}");
+    }
+
+    #[test]
+    fn evaluation_uses_running_statistics() {
+        let dev = default_device();
+        let bn = MaskedBatchNormConfig::new(2).with_epsilon(0.0).init(&dev);
+        let (x, m) = data(&dev);
+        let y: Vec<f32> = bn.forward(x, m).into_data().iter::<f32>().collect();
+        // Running mean 0, variance 1: the identity on real rows.
+        assert_eq!(y, [1.0, 10.0, 2.0, 20.0, 3.0, 30.0, 0.0, 0.0, 0.0, 0.0]);
+    }
+}
