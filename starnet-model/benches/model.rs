@@ -34,16 +34,27 @@ fn median_ms(device: &Device, mut f: impl FnMut()) -> f64 {
 }
 
 fn input(c: usize, p: usize, dev: &Device) -> ModelInput {
-    let mask = Tensor::<3>::random([1, c, p], Distribution::Uniform(0.0, 1.0), dev).greater_elem(0.25).float();
-    ModelInput { points: Tensor::random([1, c, p, 4], Distribution::Normal(0.0, 1.0), dev), mask, center_valid: Tensor::ones([1, c], dev) }
+    let mask = Tensor::<3>::random([1, c, p], Distribution::Uniform(0.0, 1.0), dev)
+        .greater_elem(0.25)
+        .float();
+    ModelInput {
+        points: Tensor::random([1, c, p, 4], Distribution::Normal(0.0, 1.0), dev),
+        mask,
+        center_valid: Tensor::ones([1, c], dev),
+    }
 }
 
 fn main() {
     let dev = default_device();
     println!("backend {}", backend_name());
-    println!("| preset | (C, P) | GFLOP/frame | forward | GFLOP/s | forward + backward + Adam | GFLOP/s (3x forward) |");
+    println!(
+        "| preset | (C, P) | GFLOP/frame | forward | GFLOP/s | forward + backward + Adam | GFLOP/s (3x forward) |"
+    );
     println!("|---|---|---|---|---|---|---|");
-    for (name, cfg) in [("paper", StarNetConfig::paper_car()), ("small", StarNetConfig::small_car())] {
+    for (name, cfg) in [
+        ("paper", StarNetConfig::paper_car()),
+        ("small", StarNetConfig::small_car()),
+    ] {
         for (c, p) in [(256, 32), (1024, 64)] {
             let gflop = forward_gflop(&cfg, c, p);
             let model = cfg.init(&dev).valid();
@@ -57,7 +68,9 @@ fn main() {
             let xa = input(c, p, &ad);
             let a = cfg.anchors.len();
             let targets = LossTargets {
-                classes: Tensor::<4>::random([1, c, a, 1], Distribution::Uniform(0.0, 1.0), &ad).greater_elem(0.99).float(),
+                classes: Tensor::<4>::random([1, c, a, 1], Distribution::Uniform(0.0, 1.0), &ad)
+                    .greater_elem(0.99)
+                    .float(),
                 cls_weight: Tensor::ones([1, c, a], &ad) / (c as f32),
                 residuals: Tensor::random([1, c, a, 7], Distribution::Normal(0.0, 0.3), &ad),
                 reg_weight: Tensor::ones([1, c, a], &ad) / (c as f32 * 10.0),

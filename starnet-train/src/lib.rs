@@ -6,6 +6,7 @@
 
 pub mod coverage;
 pub mod error;
+pub mod eval;
 pub mod inspect;
 pub mod prepare;
 pub mod render;
