@@ -49,6 +49,39 @@ pub fn frame_targets(
     )
 }
 
+/// Stacks frames (all with the same C and P) into model inputs on `device`.
+pub fn make_input(frames: &[&PreparedFrame], device: &Device) -> ModelInput {
+    let b = frames.len();
+    let (c, p) = (
+        frames[0].neighbourhoods.num_centers,
+        frames[0].neighbourhoods.num_points,
+    );
+    let floats = |v: Vec<f32>| Tensor::<1>::from_floats(v.as_slice(), device);
+    let points = floats(
+        frames
+            .iter()
+            .flat_map(|f| f.neighbourhoods.features.iter().copied())
+            .collect(),
+    );
+    let mask = floats(
+        frames
+            .iter()
+            .flat_map(|f| f.neighbourhoods.mask.iter().map(|m| *m as u8 as f32))
+            .collect(),
+    );
+    let valid = floats(
+        frames
+            .iter()
+            .flat_map(|f| f.centers.valid.iter().map(|v| *v as u8 as f32))
+            .collect(),
+    );
+    ModelInput {
+        points: points.reshape([b, c, p, NUM_FEATURES]),
+        mask: mask.reshape([b, c, p]),
+        center_valid: valid.reshape([b, c]),
+    }
+}
+
 /// Stacks frames (all with the same C and P) and their targets into a batch on `device`.
 pub fn make_batch(
     frames: &[&PreparedFrame],
@@ -57,33 +90,9 @@ pub fn make_batch(
     device: &Device,
 ) -> StarNetBatch {
     let b = frames.len();
-    let (c, p) = (
-        frames[0].neighbourhoods.num_centers,
-        frames[0].neighbourhoods.num_points,
-    );
+    let c = frames[0].neighbourhoods.num_centers;
     let a = targets[0].class.len() / c;
     let floats = |v: Vec<f32>| Tensor::<1>::from_floats(v.as_slice(), device);
-    let points = floats(
-        frames
-            .iter()
-            .flat_map(|f| f.neighbourhoods.features.iter().copied())
-            .collect(),
-    )
-    .reshape([b, c, p, NUM_FEATURES]);
-    let mask = floats(
-        frames
-            .iter()
-            .flat_map(|f| f.neighbourhoods.mask.iter().map(|m| *m as u8 as f32))
-            .collect(),
-    )
-    .reshape([b, c, p]);
-    let valid = floats(
-        frames
-            .iter()
-            .flat_map(|f| f.centers.valid.iter().map(|v| *v as u8 as f32))
-            .collect(),
-    )
-    .reshape([b, c]);
     let one_hot: Vec<f32> = targets
         .iter()
         .flat_map(|t| {
@@ -93,11 +102,7 @@ pub fn make_batch(
         })
         .collect();
     StarNetBatch {
-        input: ModelInput {
-            points,
-            mask,
-            center_valid: valid,
-        },
+        input: make_input(frames, device),
         targets: LossTargets {
             classes: floats(one_hot).reshape([b, c, a, num_classes]),
             cls_weight: floats(targets.iter().flat_map(|t| t.cls_weight.iter().copied()).collect()).reshape([b, c, a]),

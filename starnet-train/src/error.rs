@@ -16,6 +16,32 @@ pub enum TrainError {
         /// The encoder's message.
         message: String,
     },
+    /// A config file (or `--set` override) with an unknown key, a wrong type or a bad value.
+    #[error("{file}: {key}: {message}")]
+    Config {
+        /// The file (or `--set`).
+        file: PathBuf,
+        /// The dotted key, e.g. `train.learning_rate`.
+        key: String,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// A checkpoint that cannot be read or written.
+    #[error("{path}: {message}")]
+    Checkpoint {
+        /// The checkpoint file.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+    /// Training stopped on a non-finite loss.
+    #[error("step {step}: the loss is {value}; stopping (the last good checkpoint is kept)")]
+    NonFiniteLoss {
+        /// The step at which it happened.
+        step: u64,
+        /// The loss value.
+        value: f32,
+    },
     /// A command-line or config value out of range.
     #[error("{name}: {message}")]
     InvalidArgument {

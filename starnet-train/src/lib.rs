@@ -4,6 +4,7 @@
 
 #![warn(missing_docs)]
 
+pub mod config;
 pub mod coverage;
 pub mod error;
 pub mod eval;
@@ -11,5 +12,6 @@ pub mod inspect;
 pub mod prepare;
 pub mod render;
 pub mod synth;
+pub mod train;
 
 pub use error::{Result, TrainError};

@@ -10,7 +10,10 @@ use starnet_train::inspect::inspect_frame;
 use starnet_train::prepare::run_prepare;
 use starnet_train::render::{BevOptions, RenderOptions, render_frame};
 use starnet_train::synth::{SynthJob, run_stats, run_synth};
+use starnet_train::train::{TrainOptions, evaluate, load_model, run_dir_for, train};
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 #[derive(Parser)]
 #[command(
@@ -110,6 +113,61 @@ enum Command {
         #[arg(long, default_value = "train")]
         split: String,
     },
+    /// Train a detector from an experiment config (TOML). Generates the built-in simulator data
+    /// if the config asks for it, then trains, checkpoints every epoch, and evaluates on the
+    /// validation split at the end. Ctrl-C saves a checkpoint and stops; --resume continues.
+    Train {
+        /// Experiment file, e.g. configs/quickstart.toml.
+        #[arg(long)]
+        config: PathBuf,
+        /// Continue from the newest checkpoint of the run.
+        #[arg(long)]
+        resume: bool,
+        /// Override a config key: --set train.epochs=3 (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Run folder (default: {train.run_root}/{config file stem}).
+        #[arg(long)]
+        run: Option<PathBuf>,
+        /// Stop after this many steps in total.
+        #[arg(long)]
+        max_steps: Option<u64>,
+    },
+    /// Evaluate a checkpoint: KITTI AP (3D, BEV, 2D, AOS; R40 and R11) on a split, KITTI result
+    /// files, a JSON summary and per-frame latency, at one or more center/point budgets.
+    Eval {
+        /// A checkpoint folder (runs/NAME/checkpoints/best) or its model.bpk.
+        #[arg(long)]
+        checkpoint: PathBuf,
+        /// The run's config (default: the config.toml of the run holding the checkpoint).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// KITTI root (default: the config's data root).
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Split to evaluate.
+        #[arg(long, default_value = "val")]
+        split: String,
+        /// Centers per frame (a list sweeps budgets).
+        #[arg(long, value_delimiter = ',')]
+        centers: Vec<usize>,
+        /// Points per center (a list sweeps budgets).
+        #[arg(long, value_delimiter = ',')]
+        points: Vec<usize>,
+        /// Where to write result files and eval.json.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Print an experiment's resolved config (its bases, overrides and every default) as TOML;
+    /// without --config, the defaults, which document every key.
+    Config {
+        /// Experiment file.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Override a config key (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+    },
     /// Generate the built-in dataset: a ray-cast 64-beam LiDAR over simulated streets, written in
     /// the KITTI layout (velodyne, label_2, calib, ImageSets, plus a 360-degree label sidecar).
     /// With --stats, print a generated set's statistics beside KITTI's instead.
@@ -184,6 +242,87 @@ fn main() -> anyhow::Result<()> {
                 .save_png(&out)
                 .with_context(|| format!("writing {}", out.display()))?;
             println!("wrote {} ({} x {} px)", out.display(), canvas.width(), canvas.height());
+        }
+        Command::Train {
+            config,
+            resume,
+            sets,
+            run,
+            max_steps,
+        } => {
+            let cfg = starnet_train::config::load_config(&config, &sets)?;
+            let run_dir = run.unwrap_or_else(|| run_dir_for(&cfg, &config));
+            let stop = Arc::new(AtomicBool::new(false));
+            let flag = Arc::clone(&stop);
+            ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).context("installing the Ctrl-C handler")?;
+            let summary = train(
+                &cfg,
+                &run_dir,
+                &TrainOptions {
+                    resume,
+                    max_steps,
+                    stop: Some(stop),
+                },
+            )?;
+            println!("{} steps; run folder {}", summary.steps, summary.run_dir.display());
+            if let Some(report) = summary.eval {
+                print!("{report}");
+            }
+        }
+        Command::Eval {
+            checkpoint,
+            config,
+            data,
+            split,
+            centers,
+            points,
+            out,
+        } => {
+            let config = match config {
+                Some(c) => c,
+                None => checkpoint
+                    .ancestors()
+                    .map(|a| a.join("config.toml"))
+                    .find(|p| p.is_file())
+                    .context("no config.toml above the checkpoint; pass --config")?,
+            };
+            let mut cfg = starnet_train::config::load_config(&config, &[])?;
+            if let Some(d) = data {
+                cfg.data.root = d;
+            }
+            let device = starnet_model::backend::default_device();
+            let model = load_model(&checkpoint, cfg.model_config().init(&device))?;
+            let ds = starnet_data::kitti::KittiDataset::open(&cfg.data.root, Some(&split))?;
+            let centers = if centers.is_empty() {
+                vec![cfg.eval.num_centers]
+            } else {
+                centers
+            };
+            let points = if points.is_empty() {
+                vec![cfg.eval.num_points]
+            } else {
+                points
+            };
+            for &c in &centers {
+                for &p in &points {
+                    let dir = out.as_ref().map(|o| o.join(format!("c{c}_p{p}")));
+                    let report = evaluate(&model, &cfg, &ds, c, p, dir.as_deref())?;
+                    print!("{report}");
+                    if let Some(d) = &dir {
+                        starnet_data::io::atomic_write(
+                            &d.join("eval.json"),
+                            serde_json::to_string_pretty(&report)?.as_bytes(),
+                        )?;
+                    }
+                }
+            }
+        }
+        Command::Config { config, sets } => {
+            let cfg = match config {
+                Some(c) => starnet_train::config::load_config(&c, &sets)?,
+                None => starnet_train::config::ExperimentConfig::default(),
+            };
+            print!("{}", starnet_train::config::to_toml(&cfg));
         }
         Command::Coverage {
             data,

@@ -1,0 +1,571 @@
+//! Experiment configuration: one TOML file per experiment.
+//!
+//! A file may name another with `base = "other.toml"` (relative to itself); tables merge
+//! recursively, the later file winning. `--set key.path=value` overrides come last (the value is
+//! read as TOML, else as a string). The result is merged over the defaults of
+//! [`ExperimentConfig::default`], which documents every key. A key the defaults do not have, or
+//! a value of the wrong type, is an error naming the key and the file. The resolved config is
+//! written beside every run.
+
+use crate::{Result, TrainError};
+use serde::{Deserialize, Serialize};
+use starnet_data::augment::AugmentConfig;
+use starnet_data::kitti::ObjectClass;
+use starnet_data::sampling::{AnchorGrid, PipelineConfig};
+use starnet_model::assign::AssignConfig;
+use starnet_model::loss::{HeadingLoss, LossConfig};
+use starnet_model::nms::{ClassNms, NmsConfig};
+use starnet_model::nn::{FeaturizerConfig, StarNetConfig};
+use std::path::{Path, PathBuf};
+use toml::{Table, Value};
+
+/// Where the data comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataSection {
+    /// KITTI root (holding `training/` and `ImageSets/`), relative to the working directory.
+    pub root: PathBuf,
+    /// If > 0, the built-in simulator generates this many frames at `root` when it is absent.
+    pub simulate_frames: usize,
+    /// Seed of the simulated set.
+    pub simulate_seed: u64,
+    /// Classes the detector is trained for (the others are background).
+    pub classes: Vec<ObjectClass>,
+    /// Training split (`ImageSets/{train_split}.txt`).
+    pub train_split: String,
+    /// Validation split.
+    pub val_split: String,
+}
+
+/// Model widths and anchors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSection {
+    /// Width of fc0.
+    pub d_fc0: usize,
+    /// Per StarNet block, `[hidden, output]`.
+    pub blocks: Vec<[usize; 2]>,
+    /// Per-offset feature width D.
+    pub d_offset: usize,
+    /// Anchors around each center.
+    pub anchors: AnchorGrid,
+}
+
+/// Loss weights (see `starnet_model::loss`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LossSection {
+    /// Focal α.
+    pub alpha: f64,
+    /// Focal γ.
+    pub gamma: f64,
+    /// Huber δ.
+    pub huber_delta: f64,
+    /// Position weight inside localisation.
+    pub location_weight: f64,
+    /// Size weight inside localisation.
+    pub dimension_weight: f64,
+    /// Heading weight inside localisation.
+    pub rotation_weight: f64,
+    /// Localisation weight in the total.
+    pub localization_weight: f64,
+    /// Classification weight in the total.
+    pub classification_weight: f64,
+    /// `sin` (direction-invariant) or `wrap` (direction-aware).
+    pub heading: HeadingLoss,
+}
+
+/// Post-processing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NmsSection {
+    /// Per class (in `data.classes` order): 3D IoU above which a box is suppressed.
+    pub iou: Vec<f32>,
+    /// Per class: the lowest score kept.
+    pub score: Vec<f32>,
+    /// At most this many boxes per frame.
+    pub max_boxes: usize,
+}
+
+/// Optimisation and bookkeeping.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainSection {
+    /// Passes over the training split.
+    pub epochs: usize,
+    /// Frames per step.
+    pub batch_size: usize,
+    /// Adam learning rate before decay.
+    pub learning_rate: f64,
+    /// Epoch at which the exponential decay starts (the rate falls to 1 % at 95 % of training).
+    pub decay_start_epoch: f64,
+    /// Adam ε (the authors: 1e-6; Burn's default is 1e-5).
+    pub adam_epsilon: f32,
+    /// Gradients are scaled so their global L2 norm is at most this.
+    pub grad_clip_norm: f32,
+    /// L2 weight decay added to the gradient.
+    pub l2: f32,
+    /// Data-loader worker threads.
+    pub workers: usize,
+    /// Frames prepared ahead.
+    pub prefetch: usize,
+    /// Print a plain log line every this many steps (when stderr is not a terminal).
+    pub log_every: usize,
+    /// Evaluate on the validation split every this many epochs (0: only at the end).
+    pub eval_every: usize,
+    /// Checkpoints kept besides the best.
+    pub keep_last: usize,
+    /// Where runs go: `{run_root}/{config file stem}`.
+    pub run_root: PathBuf,
+}
+
+/// Evaluation budget.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvalSection {
+    /// Centers per frame at evaluation.
+    pub num_centers: usize,
+    /// Points per center at evaluation.
+    pub num_points: usize,
+    /// Frames per forward pass.
+    pub batch_size: usize,
+}
+
+/// One experiment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentConfig {
+    /// The one seed every RNG derives from.
+    pub seed: u64,
+    /// Data.
+    pub data: DataSection,
+    /// Centers and neighbourhoods for training.
+    pub pipeline: PipelineConfig,
+    /// Training augmentation.
+    pub augment: AugmentConfig,
+    /// Model.
+    pub model: ModelSection,
+    /// Target assignment.
+    pub assign: AssignConfig,
+    /// Loss.
+    pub loss: LossSection,
+    /// Post-processing.
+    pub nms: NmsSection,
+    /// Optimisation.
+    pub train: TrainSection,
+    /// Evaluation budget.
+    pub eval: EvalSection,
+}
+
+impl Default for ExperimentConfig {
+    fn default() -> Self {
+        let lc = LossConfig::new();
+        Self {
+            seed: 0,
+            data: DataSection {
+                root: "data/sim".into(),
+                simulate_frames: 0,
+                simulate_seed: 0,
+                classes: vec![ObjectClass::Car],
+                train_split: "train".into(),
+                val_split: "val".into(),
+            },
+            pipeline: PipelineConfig::default(),
+            augment: AugmentConfig::default(),
+            model: ModelSection {
+                d_fc0: 64,
+                blocks: vec![[256, 64]; 5],
+                d_offset: 128,
+                anchors: AnchorGrid::kitti_car(),
+            },
+            assign: AssignConfig::default(),
+            loss: LossSection {
+                alpha: lc.alpha,
+                gamma: lc.gamma,
+                huber_delta: lc.huber_delta,
+                location_weight: lc.location_weight,
+                dimension_weight: lc.dimension_weight,
+                rotation_weight: lc.rotation_weight,
+                localization_weight: lc.localization_weight,
+                classification_weight: lc.classification_weight,
+                heading: lc.heading,
+            },
+            nms: NmsSection {
+                iou: vec![0.083],
+                score: vec![0.321],
+                max_boxes: 512,
+            },
+            train: TrainSection {
+                epochs: 20,
+                batch_size: 2,
+                learning_rate: 1e-3,
+                decay_start_epoch: 5.0,
+                adam_epsilon: 1e-6,
+                grad_clip_norm: 5.0,
+                l2: 1e-4,
+                workers: 1,
+                prefetch: 4,
+                log_every: 50,
+                eval_every: 0,
+                keep_last: 2,
+                run_root: "runs".into(),
+            },
+            eval: EvalSection {
+                num_centers: 768,
+                num_points: 64,
+                batch_size: 2,
+            },
+        }
+    }
+}
+
+impl ExperimentConfig {
+    /// The model's Burn config.
+    pub fn model_config(&self) -> StarNetConfig {
+        let f = FeaturizerConfig::new(self.model.d_fc0, self.model.blocks.clone());
+        StarNetConfig::new(
+            f,
+            self.model.d_offset,
+            self.model.anchors.clone(),
+            self.data.classes.len(),
+        )
+    }
+
+    /// The loss's Burn config.
+    pub fn loss_config(&self) -> LossConfig {
+        let l = &self.loss;
+        LossConfig::new()
+            .with_alpha(l.alpha)
+            .with_gamma(l.gamma)
+            .with_huber_delta(l.huber_delta)
+            .with_location_weight(l.location_weight)
+            .with_dimension_weight(l.dimension_weight)
+            .with_rotation_weight(l.rotation_weight)
+            .with_localization_weight(l.localization_weight)
+            .with_classification_weight(l.classification_weight)
+            .with_heading(l.heading)
+    }
+
+    /// NMS settings per class.
+    pub fn nms_config(&self) -> NmsConfig {
+        let per_class = self
+            .nms
+            .iou
+            .iter()
+            .zip(&self.nms.score)
+            .map(|(&iou, &score)| ClassNms { iou, score })
+            .collect();
+        NmsConfig {
+            per_class,
+            max_boxes: self.nms.max_boxes,
+        }
+    }
+
+    /// Checks values no type can express; the error names the key.
+    pub fn validate(&self, file: &Path) -> Result<()> {
+        let bad = |key: &str, message: String| {
+            Err(TrainError::Config {
+                file: file.into(),
+                key: key.into(),
+                message,
+            })
+        };
+        if self.data.classes.is_empty() {
+            return bad("data.classes", "needs at least one class".into());
+        }
+        let k = self.data.classes.len();
+        if self.nms.iou.len() != k || self.nms.score.len() != k {
+            return bad(
+                "nms.iou",
+                format!("nms.iou and nms.score need one value per class ({k})"),
+            );
+        }
+        for (key, v) in [
+            ("train.epochs", self.train.epochs),
+            ("train.batch_size", self.train.batch_size),
+            ("pipeline.num_centers", self.pipeline.num_centers),
+            ("pipeline.gather.num_points", self.pipeline.gather.num_points),
+            ("eval.num_centers", self.eval.num_centers),
+            ("eval.num_points", self.eval.num_points),
+            ("eval.batch_size", self.eval.batch_size),
+        ] {
+            if v == 0 {
+                return bad(key, "must be at least 1".into());
+            }
+        }
+        if !(self.train.learning_rate > 0.0 && self.train.learning_rate.is_finite()) {
+            return bad(
+                "train.learning_rate",
+                format!("{} is not a positive rate", self.train.learning_rate),
+            );
+        }
+        if self.model.blocks.is_empty() || self.model.anchors.is_empty() {
+            return bad("model", "needs at least one block and one anchor".into());
+        }
+        Ok(())
+    }
+}
+
+/// Keys whose tables are maps with free keys (class names), not structs.
+const OPEN_TABLES: [&str; 2] = ["augment.db_paste.max_per_class", "augment.db_paste.min_points"];
+
+fn read_table(path: &Path) -> Result<Table> {
+    let text = std::fs::read_to_string(path).map_err(|e| starnet_data::DataError::io(path, e))?;
+    text.parse::<Table>().map_err(|e| TrainError::Config {
+        file: path.into(),
+        key: "(syntax)".into(),
+        message: e.to_string().trim().to_string(),
+    })
+}
+
+/// Reads `path` and its `base` chain, merged (at most 16 levels, so a cycle is an error).
+fn read_with_bases(path: &Path, depth: usize) -> Result<Table> {
+    if depth > 16 {
+        return Err(TrainError::Config {
+            file: path.into(),
+            key: "base".into(),
+            message: "more than 16 nested bases (a cycle?)".into(),
+        });
+    }
+    let mut table = read_table(path)?;
+    match table.remove("base") {
+        None => Ok(table),
+        Some(Value::String(base)) => {
+            let base_path = path.parent().unwrap_or(Path::new(".")).join(base);
+            let mut merged = read_with_bases(&base_path, depth + 1)?;
+            merge(&mut merged, table);
+            Ok(merged)
+        }
+        Some(other) => Err(TrainError::Config {
+            file: path.into(),
+            key: "base".into(),
+            message: format!("expected a file name, found {}", other.type_str()),
+        }),
+    }
+}
+
+/// Recursively merges `top` into `bottom` (tables merge, everything else is replaced).
+fn merge(bottom: &mut Table, top: Table) {
+    for (k, v) in top {
+        match (bottom.get_mut(&k), v) {
+            (Some(Value::Table(b)), Value::Table(t)) => merge(b, t),
+            (_, v) => {
+                bottom.insert(k, v);
+            }
+        }
+    }
+}
+
+/// Applies `key.path=value` overrides.
+fn apply_sets(table: &mut Table, sets: &[String]) -> Result<()> {
+    for s in sets {
+        let err = |m: &str| TrainError::Config {
+            file: "--set".into(),
+            key: s.clone(),
+            message: m.into(),
+        };
+        let (key, raw) = s
+            .split_once('=')
+            .ok_or_else(|| err("expected KEY=VALUE, e.g. train.epochs=5"))?;
+        let value = format!("v = {raw}")
+            .parse::<Table>()
+            .ok()
+            .and_then(|mut t| t.remove("v"))
+            .unwrap_or_else(|| Value::String(raw.to_string()));
+        let parts: Vec<&str> = key.trim().split('.').collect();
+        let mut at = &mut *table;
+        for p in &parts[..parts.len() - 1] {
+            let next = at.entry(p.to_string()).or_insert_with(|| Value::Table(Table::new()));
+            at = next
+                .as_table_mut()
+                .ok_or_else(|| err("a parent of this key is not a table"))?;
+        }
+        at.insert(parts[parts.len() - 1].to_string(), value);
+    }
+    Ok(())
+}
+
+/// Every key of `user` must exist in `defaults` with a compatible type.
+fn check_keys(user: &Table, defaults: &Table, prefix: &str, file: &Path) -> Result<()> {
+    for (k, v) in user {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        let Some(d) = defaults.get(k) else {
+            let known: Vec<&str> = defaults.keys().map(String::as_str).collect();
+            return Err(TrainError::Config {
+                file: file.into(),
+                key,
+                message: format!("unknown key (expected one of: {})", known.join(", ")),
+            });
+        };
+        let compatible = matches!((d, v), (Value::Float(_), Value::Integer(_)))
+            || std::mem::discriminant(d) == std::mem::discriminant(v);
+        if !compatible {
+            return Err(TrainError::Config {
+                file: file.into(),
+                key,
+                message: format!("expected {}, found {}", d.type_str(), v.type_str()),
+            });
+        }
+        if let (Value::Table(dt), Value::Table(ut)) = (d, v)
+            && !OPEN_TABLES.contains(&key.as_str())
+        {
+            check_keys(ut, dt, &key, file)?;
+        }
+    }
+    Ok(())
+}
+
+/// Integers given where the defaults have floats become floats, so serde accepts `lr = 1`.
+fn widen_numbers(user: &mut Table, defaults: &Table) {
+    for (k, v) in user.iter_mut() {
+        match (defaults.get(k), &mut *v) {
+            (Some(Value::Float(_)), Value::Integer(i)) => {
+                let f = *i as f64;
+                *v = Value::Float(f);
+            }
+            (Some(Value::Table(d)), Value::Table(u)) => widen_numbers(u, d),
+            _ => {}
+        }
+    }
+}
+
+/// Loads an experiment: `path` (with its bases), then `sets`, over the defaults.
+pub fn load_config(path: &Path, sets: &[String]) -> Result<ExperimentConfig> {
+    let mut user = read_with_bases(path, 0)?;
+    apply_sets(&mut user, sets)?;
+    let mut defaults = Table::try_from(ExperimentConfig::default()).expect("the defaults serialise");
+    check_keys(&user, &defaults, "", path)?;
+    widen_numbers(&mut user, &defaults);
+    merge(&mut defaults, user);
+    let cfg: ExperimentConfig = Value::Table(defaults)
+        .try_into()
+        .map_err(|e: toml::de::Error| TrainError::Config {
+            file: path.into(),
+            key: "(value)".into(),
+            message: e.message().to_string(),
+        })?;
+    cfg.validate(path)?;
+    Ok(cfg)
+}
+
+/// The resolved config as TOML (written beside each run).
+pub fn to_toml(cfg: &ExperimentConfig) -> String {
+    toml::to_string(cfg).expect("configs serialise")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn reference_file_lists_the_defaults() {
+        // `configs/reference.toml` is `starnet config` output under a comment header.
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/reference.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let body: String = text
+            .lines()
+            .skip_while(|l| l.starts_with('#') || l.is_empty())
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert_eq!(
+            body,
+            to_toml(&ExperimentConfig::default()),
+            "regenerate configs/reference.toml with `starnet config`"
+        );
+    }
+
+    #[test]
+    fn shipped_configs_load() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
+        for name in ["quickstart.toml", "reference.toml"] {
+            load_config(&dir.join(name), &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+    }
+
+    #[test]
+    fn defaults_round_trip_through_toml() {
+        let d = ExperimentConfig::default();
+        let back: ExperimentConfig = toml::from_str(&to_toml(&d)).unwrap();
+        assert_eq!(back, d);
+    }
+
+    #[test]
+    fn bases_merge_and_sets_win() {
+        let dir = tempfile::tempdir().unwrap();
+        write(
+            dir.path(),
+            "base.toml",
+            "seed = 3\n[train]\nepochs = 7\nbatch_size = 4\n",
+        );
+        let p = write(
+            dir.path(),
+            "exp.toml",
+            "base = \"base.toml\"\n[train]\nepochs = 9\nlearning_rate = 1\n",
+        );
+        let c = load_config(&p, &["train.batch_size=6".into(), "data.root=\"/x\"".into()]).unwrap();
+        assert_eq!((c.seed, c.train.epochs, c.train.batch_size), (3, 9, 6));
+        assert_eq!(c.train.learning_rate, 1.0, "integers widen to floats");
+        assert_eq!(c.data.root, PathBuf::from("/x"));
+        assert_eq!(
+            c.model,
+            ExperimentConfig::default().model,
+            "untouched sections keep their defaults"
+        );
+    }
+
+    #[test]
+    fn errors_name_the_key_and_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(dir.path(), "a.toml", "[train]\nlearning_rat = 0.1\n");
+        let e = load_config(&p, &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("a.toml") && e.contains("train.learning_rat") && e.contains("unknown key"),
+            "{e}"
+        );
+        let p = write(dir.path(), "b.toml", "[train]\nepochs = \"many\"\n");
+        let e = load_config(&p, &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("train.epochs") && e.contains("expected integer, found string"),
+            "{e}"
+        );
+        let p = write(dir.path(), "c.toml", "[data]\nclasses = [\"Bus\"]\n");
+        let e = load_config(&p, &[]).unwrap_err().to_string();
+        assert!(e.contains("c.toml") && e.contains("Bus"), "{e}");
+        let p = write(dir.path(), "d.toml", "[train\n");
+        assert!(load_config(&p, &[]).unwrap_err().to_string().contains("d.toml"));
+        let p = write(dir.path(), "e.toml", "[nms]\niou = [0.1, 0.2]\n");
+        assert!(
+            load_config(&p, &[])
+                .unwrap_err()
+                .to_string()
+                .contains("one value per class")
+        );
+        let p = write(dir.path(), "f.toml", "base = \"f.toml\"\n");
+        assert!(load_config(&p, &[]).unwrap_err().to_string().contains("cycle"));
+        let ok = write(dir.path(), "g.toml", "");
+        let e = load_config(&ok, &["train.nope=1".into()]).unwrap_err().to_string();
+        assert!(e.contains("train.nope"), "{e}");
+    }
+
+    #[test]
+    fn class_keyed_tables_accept_class_names() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(
+            dir.path(),
+            "a.toml",
+            "[augment.db_paste.max_per_class]\nCar = 10\nPedestrian = 4\n",
+        );
+        let c = load_config(&p, &[]).unwrap();
+        assert_eq!(c.augment.db_paste.max_per_class.get(&ObjectClass::Pedestrian), Some(&4));
+    }
+}

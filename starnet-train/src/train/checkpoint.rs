@@ -1,0 +1,125 @@
+//! Checkpoints: the model (burnpack), the optimizer state and the training position, written
+//! into a temporary folder and renamed into place, so a crash leaves the previous checkpoint
+//! whole. `--resume` continues from the newest.
+
+use crate::{Result, TrainError};
+use burn::module::Module;
+use burn::optim::{AdamConfig, ModuleOptimizer};
+use serde::{Deserialize, Serialize};
+use starnet_model::nn::StarNet;
+use std::path::{Path, PathBuf};
+
+/// Where training stands.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainState {
+    /// Steps done.
+    pub step: u64,
+    /// Best validation metric so far (Car 3D AP R40 moderate), if evaluated.
+    pub best_metric: Option<f64>,
+}
+
+fn ckpt_error(path: &Path, e: impl std::fmt::Display) -> TrainError {
+    TrainError::Checkpoint {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Writes `{dir}/{name}/` atomically (temp folder + rename).
+pub fn save_checkpoint(
+    dir: &Path,
+    name: &str,
+    model: &StarNet,
+    optim: &ModuleOptimizer,
+    state: &TrainState,
+) -> Result<PathBuf> {
+    let target = dir.join(name);
+    let tmp = dir.join(format!(".{name}.tmp"));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).map_err(|e| ckpt_error(&tmp, e))?;
+    model
+        .clone()
+        .save_file(tmp.join("model.bpk"))
+        .map_err(|e| ckpt_error(&tmp.join("model.bpk"), e))?;
+    optim
+        .save(tmp.join("optim.bpk"))
+        .map_err(|e| ckpt_error(&tmp.join("optim.bpk"), e))?;
+    let json = serde_json::to_string_pretty(state).expect("state serialises");
+    std::fs::write(tmp.join("state.json"), json).map_err(|e| ckpt_error(&tmp.join("state.json"), e))?;
+    let _ = std::fs::remove_dir_all(&target);
+    std::fs::rename(&tmp, &target).map_err(|e| ckpt_error(&target, e))?;
+    Ok(target)
+}
+
+/// Loads the model of a checkpoint folder (or of a `model.bpk` file) into `model`.
+pub fn load_model(path: &Path, model: StarNet) -> Result<StarNet> {
+    let file = if path.is_dir() {
+        path.join("model.bpk")
+    } else {
+        path.to_path_buf()
+    };
+    if !file.is_file() {
+        return Err(ckpt_error(
+            &file,
+            "no such checkpoint (expected a checkpoint folder or a model.bpk file)",
+        ));
+    }
+    model
+        .try_load_file(&file)
+        .map_err(|e| ckpt_error(&file, format!("cannot load the model: {e}")))
+}
+
+/// Loads a whole checkpoint folder for resuming.
+pub fn load_checkpoint(
+    dir: &Path,
+    model: StarNet,
+    adam: &AdamConfig,
+) -> Result<(StarNet, ModuleOptimizer, TrainState)> {
+    let model = load_model(dir, model)?;
+    let optim = adam
+        .init()
+        .load(dir.join("optim.bpk"))
+        .map_err(|e| ckpt_error(&dir.join("optim.bpk"), e))?;
+    let text = std::fs::read_to_string(dir.join("state.json")).map_err(|e| ckpt_error(&dir.join("state.json"), e))?;
+    let state = serde_json::from_str(&text).map_err(|e| ckpt_error(&dir.join("state.json"), e))?;
+    Ok((model, optim, state))
+}
+
+/// The newest `step-*` checkpoint in `dir`.
+pub fn latest_checkpoint(dir: &Path) -> Option<PathBuf> {
+    let mut steps: Vec<(u64, PathBuf)> = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter_map(|p| {
+            p.file_name()?
+                .to_str()?
+                .strip_prefix("step-")?
+                .parse()
+                .ok()
+                .map(|s| (s, p.clone()))
+        })
+        .collect();
+    steps.sort();
+    steps.pop().map(|(_, p)| p)
+}
+
+/// Removes all but the newest `keep` `step-*` checkpoints.
+pub fn prune(dir: &Path, keep: usize) {
+    let mut steps: Vec<(u64, PathBuf)> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter_map(|p| {
+            p.file_name()?
+                .to_str()?
+                .strip_prefix("step-")?
+                .parse()
+                .ok()
+                .map(|s| (s, p.clone()))
+        })
+        .collect();
+    steps.sort();
+    for (_, p) in steps.iter().take(steps.len().saturating_sub(keep)) {
+        let _ = std::fs::remove_dir_all(p);
+    }
+}

@@ -1,0 +1,205 @@
+//! Training and evaluation end to end, on a few simulated frames with a tiny model (seconds).
+
+use burn::module::Module;
+use burn::prelude::*;
+use starnet_train::config::load_config;
+use starnet_train::train::{TrainOptions, load_model, train};
+use std::path::Path;
+use std::process::Command;
+
+const TINY: &str = r#"
+seed = 3
+[data]
+root = "DATA"
+simulate_frames = 8
+classes = ["Car"]
+[pipeline]
+num_centers = 32
+[pipeline.gather]
+num_points = 8
+radius = 2.0
+[model]
+d_fc0 = 8
+blocks = [[16, 8], [16, 8]]
+d_offset = 8
+[nms]
+iou = [0.1]
+score = [0.3]
+[train]
+epochs = 3
+batch_size = 2
+learning_rate = 0.002
+decay_start_epoch = 1
+workers = 2
+[eval]
+num_centers = 32
+num_points = 8
+"#;
+
+fn tiny_config(dir: &Path) -> std::path::PathBuf {
+    let p = dir.join("tiny.toml");
+    std::fs::write(&p, TINY.replace("DATA", &dir.join("data").display().to_string())).unwrap();
+    p
+}
+
+fn parameters(path: &Path) -> Vec<f32> {
+    let cfg = load_config(
+        &path
+            .parent()
+            .unwrap()
+            .parent()
+            .unwrap()
+            .parent()
+            .unwrap()
+            .join("config.toml"),
+        &[],
+    )
+    .unwrap();
+    let dev = starnet_model::backend::default_device();
+    let model = load_model(path, cfg.model_config().init(&dev)).unwrap();
+    let mut out = Vec::new();
+    struct Collect<'a>(&'a mut Vec<f32>);
+    impl burn::module::ModuleVisitor for Collect<'_> {
+        fn visit_float<const D: usize>(&mut self, p: &burn::module::Param<Tensor<D>>) {
+            self.0.extend(p.val().into_data().iter::<f32>());
+        }
+    }
+    model.visit(&mut Collect(&mut out));
+    out
+}
+
+#[test]
+fn resuming_after_a_crash_gives_the_same_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = load_config(&tiny_config(dir.path()), &[]).unwrap();
+    let (a, b) = (dir.path().join("run-a"), dir.path().join("run-b"));
+    let full = train(&cfg, &a, &TrainOptions::default()).unwrap();
+    assert!(full.steps > 3 && full.eval.is_some());
+    // "Crash" after 3 steps: the run stops with its checkpoint written, as a kill between
+    // checkpoints would leave the previous one.
+    let part = train(
+        &cfg,
+        &b,
+        &TrainOptions {
+            max_steps: Some(3),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(part.steps, 3);
+    assert!(
+        train(&cfg, &b, &TrainOptions::default()).is_err(),
+        "an existing run needs --resume"
+    );
+    let resumed = train(
+        &cfg,
+        &b,
+        &TrainOptions {
+            resume: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(resumed.steps, full.steps);
+    let last = |run: &Path| starnet_train::train::latest_checkpoint(&run.join("checkpoints")).unwrap();
+    let (pa, pb) = (
+        parameters(&last(&a).join("model.bpk")),
+        parameters(&last(&b).join("model.bpk")),
+    );
+    assert!(!pa.is_empty());
+    assert!(pa == pb, "resumed parameters differ from the uninterrupted run's");
+    // The log has one line per step of each run.
+    let log = std::fs::read_to_string(b.join("log.jsonl")).unwrap();
+    assert_eq!(
+        log.lines().filter(|l| l.contains("\"loss\"")).count() as u64,
+        full.steps
+    );
+}
+
+fn starnet(args: &[&str], cwd: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_starnet"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn train_then_eval_through_the_cli() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = tiny_config(dir.path());
+    let o = starnet(
+        &["train", "--config", cfg.to_str().unwrap(), "--set", "train.epochs=1"],
+        dir.path(),
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.contains("| Car | 0.7 | 3D |"), "{out}");
+    let run = dir.path().join("runs/tiny");
+    assert!(
+        run.join("config.toml").is_file()
+            && run.join("eval.json").is_file()
+            && run.join("checkpoints/best/model.bpk").is_file()
+    );
+    let results = dir.path().join("eval-out");
+    let o = starnet(
+        &[
+            "eval",
+            "--checkpoint",
+            run.join("checkpoints/best").to_str().unwrap(),
+            "--centers",
+            "16,32",
+            "--out",
+            results.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(out.matches("| Car | 0.7 | 3D |").count(), 2, "{out}");
+    assert!(results.join("c16_p8/eval.json").is_file() && results.join("c32_p8/eval.json").is_file());
+    // Result files for every validation frame, in the submission format.
+    let val = std::fs::read_to_string(dir.path().join("data/ImageSets/val.txt")).unwrap();
+    for id in val.lines() {
+        let f = results.join(format!("c32_p8/{id}.txt"));
+        starnet_data::kitti::read_labels(&f).unwrap();
+    }
+}
+
+#[test]
+fn bad_configs_and_checkpoints_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = tiny_config(dir.path());
+    let o = starnet(
+        &["train", "--config", cfg.to_str().unwrap(), "--set", "train.epocs=2"],
+        dir.path(),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("train.epocs") && err.contains("unknown key"),
+        "{err}"
+    );
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "[train]\nbatch_size = \"two\"\n").unwrap();
+    let err =
+        String::from_utf8_lossy(&starnet(&["train", "--config", bad.to_str().unwrap()], dir.path()).stderr).to_string();
+    assert!(err.contains("bad.toml") && err.contains("train.batch_size"), "{err}");
+    let ckpt = dir.path().join("broken");
+    std::fs::create_dir_all(&ckpt).unwrap();
+    std::fs::write(ckpt.join("model.bpk"), b"not a checkpoint").unwrap();
+    let o = starnet(
+        &[
+            "eval",
+            "--checkpoint",
+            ckpt.to_str().unwrap(),
+            "--config",
+            cfg.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("broken/model.bpk") && !err.contains("panicked"),
+        "{err}"
+    );
+}
