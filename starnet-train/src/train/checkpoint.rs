@@ -85,26 +85,8 @@ pub fn load_checkpoint(
     Ok((model, optim, state))
 }
 
-/// The newest `step-*` checkpoint in `dir`.
-pub fn latest_checkpoint(dir: &Path) -> Option<PathBuf> {
-    let mut steps: Vec<(u64, PathBuf)> = std::fs::read_dir(dir)
-        .ok()?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter_map(|p| {
-            p.file_name()?
-                .to_str()?
-                .strip_prefix("step-")?
-                .parse()
-                .ok()
-                .map(|s| (s, p.clone()))
-        })
-        .collect();
-    steps.sort();
-    steps.pop().map(|(_, p)| p)
-}
-
-/// Removes all but the newest `keep` `step-*` checkpoints.
-pub fn prune(dir: &Path, keep: usize) {
+/// The `step-*` checkpoints in `dir`, oldest first.
+fn step_checkpoints(dir: &Path) -> Vec<(u64, PathBuf)> {
     let mut steps: Vec<(u64, PathBuf)> = std::fs::read_dir(dir)
         .into_iter()
         .flatten()
@@ -119,6 +101,17 @@ pub fn prune(dir: &Path, keep: usize) {
         })
         .collect();
     steps.sort();
+    steps
+}
+
+/// The newest `step-*` checkpoint in `dir`.
+pub fn latest_checkpoint(dir: &Path) -> Option<PathBuf> {
+    step_checkpoints(dir).pop().map(|(_, p)| p)
+}
+
+/// Removes all but the newest `keep` `step-*` checkpoints.
+pub fn prune(dir: &Path, keep: usize) {
+    let steps = step_checkpoints(dir);
     for (_, p) in steps.iter().take(steps.len().saturating_sub(keep)) {
         let _ = std::fs::remove_dir_all(p);
     }

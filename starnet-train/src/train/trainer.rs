@@ -237,7 +237,8 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
         if state.step % steps_per_epoch == 0 || state.step == end {
             log.flush().map_err(|e| starnet_data::DataError::io(&log_path, e))?;
             let epoch_done = state.step / steps_per_epoch;
-            let due = cfg.train.eval_every > 0 && epoch_done.is_multiple_of(cfg.train.eval_every as u64) && state.step < end;
+            let due =
+                cfg.train.eval_every > 0 && epoch_done.is_multiple_of(cfg.train.eval_every as u64) && state.step < end;
             if due {
                 let report = evaluate(
                     &model.valid(),
