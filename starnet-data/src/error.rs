@@ -57,6 +57,14 @@ pub enum DataError {
         /// The missing key, e.g. `Tr_velo_to_cam`.
         key: &'static str,
     },
+    /// A data-loader job panicked (a bug); the message is the panic's.
+    #[error("data loader: preparing item {index} failed unexpectedly: {message}")]
+    WorkerPanic {
+        /// The item being prepared.
+        index: usize,
+        /// The panic message.
+        message: String,
+    },
     /// A frame listed in a split (or asked for) whose file is absent.
     #[error("frame {frame}: {path} does not exist")]
     MissingFile {

@@ -42,7 +42,18 @@ impl<T: Send + 'static> Loader<T> {
                         let ticket = rx.lock().expect("no panics while holding it").recv();
                         let Ok(i) = ticket else { return };
                         let mut rng = ChaCha8Rng::seed_from_u64(sub_seed(seed, 11, i as u64));
-                        if tx.send((i, job(i, &mut rng))).is_err() {
+                        // A panicking job (a bug) becomes an error item, so the consumer stops
+                        // with a message instead of crashing on a dead channel.
+                        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job(i, &mut rng)))
+                            .unwrap_or_else(|p| {
+                                let message = p
+                                    .downcast_ref::<&str>()
+                                    .map(|s| s.to_string())
+                                    .or_else(|| p.downcast_ref::<String>().cloned())
+                                    .unwrap_or_else(|| "panic".into());
+                                Err(crate::DataError::WorkerPanic { index: i, message })
+                            });
+                        if tx.send((i, result)).is_err() {
                             return;
                         }
                     }
@@ -73,15 +84,20 @@ impl<T> Iterator for Loader<T> {
             return None;
         }
         while !self.pending.contains_key(&self.next) {
-            let (i, item) = self.results.recv().expect("a worker panicked");
-            self.pending.insert(i, item);
+            match self.results.recv() {
+                Ok((i, item)) => {
+                    self.pending.insert(i, item);
+                }
+                // Every worker is gone (they only stop when the loader is dropped).
+                Err(_) => return None,
+            }
         }
         let item = self.pending.remove(&self.next).expect("just checked");
         self.next += 1;
         if self.issued < self.len
             && let Some(t) = &self.tickets
+            && t.send(self.issued).is_ok()
         {
-            t.send(self.issued).expect("workers are alive");
             self.issued += 1;
         }
         Some(item)
@@ -125,6 +141,22 @@ mod tests {
         assert_eq!(one.iter().map(|x| x.0).collect::<Vec<_>>(), (0..40).collect::<Vec<_>>());
         assert_eq!(stream(2), one);
         assert_eq!(stream(3), one);
+    }
+
+    #[test]
+    fn a_panicking_job_becomes_an_error_item() {
+        let items: Vec<_> = Loader::new(
+            4,
+            2,
+            2,
+            1,
+            |i, _| if i == 2 { panic!("bug in item {i}") } else { Ok(i) },
+        )
+        .collect();
+        assert_eq!(items.len(), 4);
+        let err = items[2].as_ref().unwrap_err().to_string();
+        assert!(err.contains("item 2") && err.contains("bug in item 2"), "{err}");
+        assert!(items[3].is_ok());
     }
 
     #[test]

@@ -121,12 +121,14 @@ impl SpatialGrid {
         let ((x0, Some(x1)), (y0, Some(y1))) = (range(0), range(1)) else {
             return;
         };
+        // A query beyond the grid's extent on either side touches no cell (centers can lie
+        // outside it: the ring dropout runs after center selection and may remove the extremes).
+        if y0 > y1 {
+            return;
+        }
         for gx in x0..=x1 {
             let row = gx * self.dims[1];
-            let (s, e) = (
-                self.starts[row + y0] as usize,
-                self.starts[row + y1.max(y0) + 1] as usize,
-            );
+            let (s, e) = (self.starts[row + y0] as usize, self.starts[row + y1 + 1] as usize);
             // Cells y0..=y1 of one grid row are contiguous in `sorted`.
             for k in s..e {
                 let p = &self.sorted[k];
@@ -226,6 +228,32 @@ mod tests {
                 .collect();
             assert_eq!(got, want);
         }
+    }
+
+    #[test]
+    fn queries_beyond_the_grid_find_nothing() {
+        let pts = cloud(500);
+        let grid = SpatialGrid::new(&pts, 0.7);
+        let mut got = Vec::new();
+        // Beyond every side, and past the far corner (this used to index out of bounds).
+        for c in [
+            [0.0, 60.0, 0.0],
+            [0.0, -60.0, 0.0],
+            [60.0, 0.0, 0.0],
+            [-60.0, 0.0, 0.0],
+            [60.0, 60.0, 0.0],
+            [20.5, 20.5, 0.0],
+        ] {
+            grid.within(c, 0.3, &mut got);
+        }
+        assert!(got.is_empty(), "{got:?}");
+        // Just inside the edge still finds the edge points.
+        grid.within([19.9, 19.9, 0.0], 3.0, &mut got);
+        let want = pts
+            .iter()
+            .filter(|p| (p[0] - 19.9).powi(2) + (p[1] - 19.9).powi(2) + p[2].powi(2) <= 9.0)
+            .count();
+        assert_eq!(got.len(), want);
     }
 
     #[test]
