@@ -109,6 +109,27 @@ pub struct KittiObject {
 }
 
 impl KittiObject {
+    /// A DontCare region: a 2D box with KITTI's sentinel values in every other field.
+    pub fn dont_care(bbox: [f32; 4]) -> Self {
+        Self {
+            class: ObjectClass::DontCare,
+            truncated: -1.0,
+            occluded: -1,
+            alpha: -10.0,
+            bbox,
+            cam: CameraBox {
+                h: -1.0,
+                w: -1.0,
+                l: -1.0,
+                x: -1000.0,
+                y: -1000.0,
+                z: -1000.0,
+                ry: -10.0,
+            },
+            score: None,
+        }
+    }
+
     /// Height of the 2D box in pixels.
     pub fn bbox_height(&self) -> f32 {
         self.bbox[3] - self.bbox[1]
@@ -296,6 +317,13 @@ mod tests {
         assert_eq!((o.cam.h, o.cam.w, o.cam.l), (1.67, 1.87, 3.69));
         assert_eq!((o.cam.x, o.cam.y, o.cam.z, o.cam.ry), (-16.53, 2.39, 58.49, 1.57));
         assert_eq!(o.score, None);
+    }
+
+    #[test]
+    fn dont_care_constructor_writes_kittis_line() {
+        let o = KittiObject::dont_care([503.89, 169.71, 590.61, 190.13]);
+        assert_eq!(o.to_label_line(), DONT);
+        assert_eq!(KittiObject::parse_line(DONT, Path::new("l.txt"), 1).unwrap(), o);
     }
 
     #[test]

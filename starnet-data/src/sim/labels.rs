@@ -46,23 +46,7 @@ pub fn camera_label(obj: &SimObject, calib: &Calib, image: ImageSize) -> Option<
         return None;
     }
     if cam.x.hypot(cam.z) > DONT_CARE_DISTANCE {
-        return Some(KittiObject {
-            class: ObjectClass::DontCare,
-            truncated: -1.0,
-            occluded: -1,
-            alpha: -10.0,
-            bbox,
-            cam: crate::kitti::CameraBox {
-                h: -1.0,
-                w: -1.0,
-                l: -1.0,
-                x: -1000.0,
-                y: -1000.0,
-                z: -1000.0,
-                ry: -10.0,
-            },
-            score: None,
-        });
+        return Some(KittiObject::dont_care(bbox));
     }
     Some(KittiObject {
         class: obj.class,

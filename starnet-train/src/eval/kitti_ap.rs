@@ -463,16 +463,7 @@ mod tests {
         assert_eq!(kitti_ap(&f, &[ObjectClass::Car])[0].bbox, base.bbox, "Van is ignored");
         // A detection inside a DontCare region is forgiven in 2D only (DontCare has no 3D box).
         let mut f = perfect();
-        let mut dc = obj(ObjectClass::DontCare, 1000.0, 60.0, None);
-        dc.cam = CameraBox {
-            h: -1.0,
-            w: -1.0,
-            l: -1.0,
-            x: -1000.0,
-            y: -1000.0,
-            z: -1000.0,
-            ry: -10.0,
-        };
+        let dc = KittiObject::dont_care([1000.0, 150.0, 1080.0, 210.0]);
         f[0].0.push(dc);
         f[0].1.push(obj(ObjectClass::Car, 1005.0, 50.0, Some(0.99)));
         let r = &kitti_ap(&f, &[ObjectClass::Car])[0];
