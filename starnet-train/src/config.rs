@@ -105,6 +105,9 @@ pub struct TrainSection {
     pub grad_clip_norm: f32,
     /// L2 weight decay added to the gradient.
     pub l2: f32,
+    /// Decay of the weight EMA used for evaluation and the `ema.bpk` of checkpoints (lingvo:
+    /// 0.99); 0 turns it off.
+    pub ema_decay: f64,
     /// Data-loader worker threads.
     pub workers: usize,
     /// Frames prepared ahead.
@@ -203,6 +206,7 @@ impl Default for ExperimentConfig {
                 adam_epsilon: 1e-6,
                 grad_clip_norm: 5.0,
                 l2: 1e-4,
+                ema_decay: 0.99,
                 workers: 1,
                 prefetch: 4,
                 log_every: 50,
@@ -297,6 +301,12 @@ impl ExperimentConfig {
             return bad(
                 "train.learning_rate",
                 format!("{} is not a positive rate", self.train.learning_rate),
+            );
+        }
+        if !(0.0..1.0).contains(&self.train.ema_decay) {
+            return bad(
+                "train.ema_decay",
+                format!("{} is not in [0, 1) (0 turns the EMA off)", self.train.ema_decay),
             );
         }
         if self.model.blocks.is_empty() || self.model.anchors.is_empty() {

@@ -42,6 +42,16 @@ pub enum TrainError {
         /// The loss value.
         value: f32,
     },
+    /// A training log line that is not a log record.
+    #[error("{path}: line {line}: {message}")]
+    Log {
+        /// The log file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// The parser's message.
+        message: String,
+    },
     /// A command-line or config value out of range.
     #[error("{name}: {message}")]
     InvalidArgument {

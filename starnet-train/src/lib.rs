@@ -4,8 +4,10 @@
 
 #![warn(missing_docs)]
 
+pub mod budget;
 pub mod config;
 pub mod coverage;
+pub mod curves;
 pub mod error;
 pub mod eval;
 pub mod inspect;

@@ -4,13 +4,15 @@
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use starnet_data::kitti::KittiDataset;
-use starnet_data::sampling::Sampler;
+use starnet_data::sampling::{CenterTarget, Sampler};
+use starnet_train::budget::{budget_grid, budget_table, sweep};
 use starnet_train::coverage::run_coverage;
+use starnet_train::curves::plot_run;
 use starnet_train::inspect::inspect_frame;
 use starnet_train::prepare::run_prepare;
 use starnet_train::render::{BevOptions, RenderOptions, render_frame};
 use starnet_train::synth::{SynthJob, run_stats, run_synth};
-use starnet_train::train::{TrainOptions, evaluate, load_model, run_dir_for, train};
+use starnet_train::train::{TrainOptions, load_model, run_dir_for, train};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -154,7 +156,25 @@ enum Command {
         /// Points per center (a list sweeps budgets).
         #[arg(long, value_delimiter = ',')]
         points: Vec<usize>,
-        /// Where to write result files and eval.json.
+        /// Which sampled centers the model sees: `all`, or `nearest:N` (the N closest to the
+        /// sensor; compare the AP per 10 m).
+        #[arg(long, default_value = "all")]
+        target: CenterTarget,
+        /// Override a config key, e.g. --set nms.score=[0.1] (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Where to write, per budget, the result files and eval.json (in c{C}_p{P}/), and for a
+        /// sweep budget.md, budget.json and the plots budget_gflop.png and budget_latency.png.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Plot a run's training curves from its log.jsonl: loss.png (total and terms), lr.png and,
+    /// when it evaluated during training, ap.png.
+    Plot {
+        /// The run folder (holding log.jsonl).
+        #[arg(long)]
+        run: PathBuf,
+        /// Output folder (default: the run folder).
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -276,6 +296,8 @@ fn main() -> anyhow::Result<()> {
             split,
             centers,
             points,
+            target,
+            sets,
             out,
         } => {
             let config = match config {
@@ -286,35 +308,31 @@ fn main() -> anyhow::Result<()> {
                     .find(|p| p.is_file())
                     .context("no config.toml above the checkpoint; pass --config")?,
             };
-            let mut cfg = starnet_train::config::load_config(&config, &[])?;
+            let mut cfg = starnet_train::config::load_config(&config, &sets)?;
             if let Some(d) = data {
                 cfg.data.root = d;
             }
             let device = starnet_model::backend::default_device();
             let model = load_model(&checkpoint, cfg.model_config().init(&device))?;
-            let ds = starnet_data::kitti::KittiDataset::open(&cfg.data.root, Some(&split))?;
-            let centers = if centers.is_empty() {
-                vec![cfg.eval.num_centers]
-            } else {
-                centers
-            };
-            let points = if points.is_empty() {
-                vec![cfg.eval.num_points]
-            } else {
-                points
-            };
-            for &c in &centers {
-                for &p in &points {
-                    let dir = out.as_ref().map(|o| o.join(format!("c{c}_p{p}")));
-                    let report = evaluate(&model, &cfg, &ds, c, p, dir.as_deref())?;
-                    print!("{report}");
-                    if let Some(d) = &dir {
-                        starnet_data::io::atomic_write(
-                            &d.join("eval.json"),
-                            serde_json::to_string_pretty(&report)?.as_bytes(),
-                        )?;
-                    }
-                }
+            let ds = KittiDataset::open(&cfg.data.root, Some(&split))?;
+            let or = |v: Vec<usize>, d: usize| if v.is_empty() { vec![d] } else { v };
+            let budgets = budget_grid(
+                &or(centers, cfg.eval.num_centers),
+                &or(points, cfg.eval.num_points),
+                target,
+            );
+            anyhow::ensure!(
+                budgets.iter().all(|b| b.num_centers > 0 && b.num_points > 0),
+                "--centers and --points need positive counts"
+            );
+            let reports = sweep(&model, &cfg, &ds, &budgets, out.as_deref(), &mut |r| println!("{r}"))?;
+            if reports.len() > 1 {
+                print!("{}", budget_table(&reports));
+            }
+        }
+        Command::Plot { run, out } => {
+            for path in plot_run(&run, out.as_deref())? {
+                println!("wrote {}", path.display());
             }
         }
         Command::Config { config, sets } => {

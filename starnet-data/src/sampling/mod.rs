@@ -8,6 +8,7 @@ mod fps;
 mod gather;
 mod pool;
 mod prepare;
+mod target;
 
 pub use anchors::{AnchorGrid, AnchorPrior};
 pub use centers::{CenterZ, Centers, Sampler, sample_centers};
@@ -15,3 +16,4 @@ pub use coverage::{CoverageConfig, CoverageTable, coverage};
 pub use gather::{GatherConfig, NUM_FEATURES, Neighbourhoods, SpatialGrid, gather, gather_with_grid};
 pub use pool::{CenterPoolConfig, center_pool, z_band_from_labels};
 pub use prepare::{Augmentation, PipelineConfig, PreparedFrame, prepare_frame};
+pub use target::CenterTarget;

@@ -2,7 +2,8 @@
 //! the center pool, center sampling, the one-ring dropout (training only), gathering.
 
 use super::{
-    CenterPoolConfig, CenterZ, Centers, GatherConfig, Neighbourhoods, Sampler, center_pool, gather, sample_centers,
+    CenterPoolConfig, CenterTarget, CenterZ, Centers, GatherConfig, Neighbourhoods, Sampler, center_pool, gather,
+    sample_centers,
 };
 use crate::augment::{AugmentConfig, AugmentDraw, GtDatabase, Scene, augment, ring_dropout};
 use crate::kitti::{Frame, ObjectClass};
@@ -19,8 +20,10 @@ pub struct PipelineConfig {
     pub pool: CenterPoolConfig,
     /// How centers are picked.
     pub sampler: Sampler,
-    /// Centers per frame C.
+    /// Centers sampled per frame.
     pub num_centers: usize,
+    /// Which sampled centers the model sees (`all`, or `nearest:N`); C is what remains.
+    pub target: CenterTarget,
     /// The z given to centers.
     pub center_z: CenterZ,
     /// Neighbourhood size and radius.
@@ -33,6 +36,7 @@ impl Default for PipelineConfig {
             pool: CenterPoolConfig::kitti(),
             sampler: Sampler::Fps,
             num_centers: 768,
+            target: CenterTarget::All,
             center_z: CenterZ::Zero,
             gather: GatherConfig {
                 num_points: 64,
@@ -71,7 +75,7 @@ pub struct Augmentation<'a> {
 }
 
 /// Prepares `frame`: augments it when `augmentation` is given, then samples `cfg.num_centers`
-/// centers (the `seeds` first) and gathers their neighbourhoods.
+/// centers (the `seeds` first), keeps those `cfg.target` names and gathers their neighbourhoods.
 pub fn prepare_frame(
     frame: &Frame,
     cfg: &PipelineConfig,
@@ -98,6 +102,7 @@ pub fn prepare_frame(
         cfg.center_z,
         rng,
     );
+    let centers = cfg.target.apply(centers);
     let points = match augmentation {
         Some(a) if a.config.ring_dropout => ring_dropout(&scene.points, a.config.ring_dropout_width, rng).0,
         _ => scene.points,

@@ -1,5 +1,12 @@
-//! Evaluation: KITTI AP as the official devkit computes it.
+//! Evaluation: KITTI AP as the official devkit computes it, Waymo-style AP/APH by difficulty
+//! level and range, and AP per distance bin.
 
+mod hungarian;
 mod kitti_ap;
+mod range_ap;
+mod waymo_ap;
 
+pub use hungarian::max_weight_matching;
 pub use kitti_ap::{Ap, ApMetric, ClassAp, kitti_ap, official_min_overlap};
+pub use range_ap::{RANGE_BIN_M, RangeAp, ap_by_range};
+pub use waymo_ap::{ApAph, RANGE_SHARDS, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, waymo_ap, waymo_level};

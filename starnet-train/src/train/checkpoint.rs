@@ -1,7 +1,9 @@
-//! Checkpoints: the model (burnpack), the optimizer state and the training position, written
-//! into a temporary folder and renamed into place, so a crash leaves the previous checkpoint
-//! whole. `--resume` continues from the newest.
+//! Checkpoints: the model (`model.bpk`, burnpack), the evaluation model with the averaged weights
+//! (`ema.bpk`, when the run keeps a weight EMA), the optimizer state and the training position,
+//! written into a temporary folder and renamed into place, so a crash leaves the previous
+//! checkpoint whole. `--resume` continues from the newest.
 
+use super::ema::WeightEma;
 use crate::{Result, TrainError};
 use burn::module::Module;
 use burn::optim::{AdamConfig, ModuleOptimizer};
@@ -31,6 +33,7 @@ pub fn save_checkpoint(
     name: &str,
     model: &StarNet,
     optim: &ModuleOptimizer,
+    ema: Option<&WeightEma>,
     state: &TrainState,
 ) -> Result<PathBuf> {
     let target = dir.join(name);
@@ -41,6 +44,11 @@ pub fn save_checkpoint(
         .clone()
         .save_file(tmp.join("model.bpk"))
         .map_err(|e| ckpt_error(&tmp.join("model.bpk"), e))?;
+    if let Some(ema) = ema {
+        ema.apply(model)
+            .save_file(tmp.join("ema.bpk"))
+            .map_err(|e| ckpt_error(&tmp.join("ema.bpk"), e))?;
+    }
     optim
         .save(tmp.join("optim.bpk"))
         .map_err(|e| ckpt_error(&tmp.join("optim.bpk"), e))?;
@@ -51,10 +59,13 @@ pub fn save_checkpoint(
     Ok(target)
 }
 
-/// Loads the model of a checkpoint folder (or of a `model.bpk` file) into `model`.
+/// Loads the evaluation model of a checkpoint folder into `model`: its `ema.bpk` (averaged
+/// weights) when the run kept one, else its `model.bpk`; or the given `.bpk` file.
 pub fn load_model(path: &Path, model: StarNet) -> Result<StarNet> {
     let file = if path.is_dir() {
-        path.join("model.bpk")
+        Some(path.join("ema.bpk"))
+            .filter(|f| f.is_file())
+            .unwrap_or_else(|| path.join("model.bpk"))
     } else {
         path.to_path_buf()
     };
@@ -69,20 +80,46 @@ pub fn load_model(path: &Path, model: StarNet) -> Result<StarNet> {
         .map_err(|e| ckpt_error(&file, format!("cannot load the model: {e}")))
 }
 
-/// Loads a whole checkpoint folder for resuming.
-pub fn load_checkpoint(
-    dir: &Path,
-    model: StarNet,
-    adam: &AdamConfig,
-) -> Result<(StarNet, ModuleOptimizer, TrainState)> {
-    let model = load_model(dir, model)?;
+/// What a checkpoint restores.
+pub struct Restored {
+    /// The trained model.
+    pub model: StarNet,
+    /// Adam's moments.
+    pub optim: ModuleOptimizer,
+    /// The weight EMA, when `ema_decay` is given: from `ema.bpk`, or started at the model when
+    /// the checkpoint has none.
+    pub ema: Option<WeightEma>,
+    /// The training position.
+    pub state: TrainState,
+}
+
+/// Loads a whole checkpoint folder for resuming; `ema_decay` > 0 restores the weight EMA.
+pub fn load_checkpoint(dir: &Path, model: StarNet, adam: &AdamConfig, ema_decay: f64) -> Result<Restored> {
+    let fresh = model.clone();
+    let model = load_model(&dir.join("model.bpk"), model)?;
+    let ema = (ema_decay > 0.0)
+        .then(|| -> Result<WeightEma> {
+            let file = dir.join("ema.bpk");
+            let averaged = if file.is_file() {
+                load_model(&file, fresh)?
+            } else {
+                model.clone()
+            };
+            Ok(WeightEma::new(ema_decay, &averaged))
+        })
+        .transpose()?;
     let optim = adam
         .init()
         .load(dir.join("optim.bpk"))
         .map_err(|e| ckpt_error(&dir.join("optim.bpk"), e))?;
     let text = std::fs::read_to_string(dir.join("state.json")).map_err(|e| ckpt_error(&dir.join("state.json"), e))?;
     let state = serde_json::from_str(&text).map_err(|e| ckpt_error(&dir.join("state.json"), e))?;
-    Ok((model, optim, state))
+    Ok(Restored {
+        model,
+        optim,
+        ema,
+        state,
+    })
 }
 
 /// The `step-*` checkpoints in `dir`, oldest first.

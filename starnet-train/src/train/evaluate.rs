@@ -1,14 +1,19 @@
-//! Evaluating a model on a split: detections for every frame, written as KITTI result files,
-//! and KITTI AP against the labels, with per-frame latency.
+//! Evaluating a model on a split at a center/point budget: detections for every frame, written
+//! as KITTI result files; KITTI AP, Waymo-style AP/APH and AP per 10 m against the labels; the
+//! per-frame latency.
 
 use crate::Result;
 use crate::config::ExperimentConfig;
-use crate::eval::{ClassAp, kitti_ap};
+use crate::eval::{
+    ClassAp, RangeAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_range, kitti_ap, waymo_ap,
+};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use starnet_data::kitti::{Calib, ImageSize, KittiDataset, KittiObject, ObjectClass, observation_angle, write_results};
-use starnet_data::sampling::{GatherConfig, PipelineConfig, prepare_frame};
+use starnet_data::kitti::{
+    Calib, Frame, ImageSize, KittiDataset, KittiObject, ObjectClass, observation_angle, write_results,
+};
+use starnet_data::sampling::{CenterTarget, GatherConfig, PipelineConfig, prepare_frame};
 use starnet_data::sim::sub_seed;
 use starnet_model::batch::{decode_frame, make_input};
 use starnet_model::flops::forward_gflop;
@@ -17,15 +22,47 @@ use starnet_model::nn::StarNet;
 use std::path::Path;
 use std::time::Instant;
 
+/// How much compute a frame gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Budget {
+    /// Centers sampled per frame.
+    pub num_centers: usize,
+    /// Points per center.
+    pub num_points: usize,
+    /// Which sampled centers the model sees.
+    pub target: CenterTarget,
+}
+
+impl Budget {
+    /// The config's evaluation budget.
+    pub fn of(cfg: &ExperimentConfig) -> Self {
+        Self {
+            num_centers: cfg.eval.num_centers,
+            num_points: cfg.eval.num_points,
+            target: CenterTarget::All,
+        }
+    }
+
+    /// Centers the model sees.
+    pub fn model_centers(&self) -> usize {
+        self.target.count(self.num_centers)
+    }
+}
+
+/// Distance bins of [`EvalReport::by_range`] reach this far, metres.
+pub const RANGE_BINS_MAX_M: f32 = 80.0;
+
 /// What an evaluation found.
 #[derive(Debug, Clone, Serialize)]
 pub struct EvalReport {
     /// Frames evaluated.
     pub frames: usize,
-    /// Centers per frame.
+    /// Centers sampled per frame.
     pub num_centers: usize,
     /// Points per center.
     pub num_points: usize,
+    /// Which sampled centers the model saw.
+    pub target: CenterTarget,
     /// Forward GFLOP per frame at this budget.
     pub gflop_per_frame: f64,
     /// Mean wall time per frame (preparation, forward, decoding), ms.
@@ -34,6 +71,10 @@ pub struct EvalReport {
     pub latency_ms_p95: f64,
     /// KITTI AP per class.
     pub classes: Vec<ClassAp>,
+    /// Waymo-style AP/APH per class (the labelled objects, LiDAR point counts from the scan).
+    pub waymo: Vec<WaymoClassAp>,
+    /// KITTI AP (moderate) of the first class per 10 m of distance.
+    pub by_range: Vec<RangeAp>,
 }
 
 impl EvalReport {
@@ -45,9 +86,13 @@ impl EvalReport {
 
 impl std::fmt::Display for EvalReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let target = match self.target {
+            CenterTarget::All => String::new(),
+            t => format!(" (target {t})"),
+        };
         writeln!(
             f,
-            "{} frames, {} centers x {} points ({:.2} GFLOP/frame), latency {:.1} ms mean, {:.1} ms p95",
+            "{} frames, {} centers{target} x {} points ({:.2} GFLOP/frame), latency {:.1} ms mean, {:.1} ms p95",
             self.frames,
             self.num_centers,
             self.num_points,
@@ -73,6 +118,40 @@ impl std::fmt::Display for EvalReport {
                 )?;
             }
         }
+        writeln!(f, "\nWaymo-style 3D AP / APH (LEVEL_1 > 5 points, LEVEL_2 ≥ 1):")?;
+        writeln!(
+            f,
+            "| class | IoU | level | objects | AP | APH | 0-30 m | 30-50 m | 50+ m |"
+        )?;
+        writeln!(f, "|---|---|---|---|---|---|---|---|---|")?;
+        for c in &self.waymo {
+            for l in 0..2 {
+                let r = &c.ranges[l];
+                writeln!(
+                    f,
+                    "| {} | {:.1} | LEVEL_{} | {} | {:.2} | {:.2} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} |",
+                    c.class,
+                    c.iou,
+                    l + 1,
+                    c.num_objects[l],
+                    c.levels[l].ap,
+                    c.levels[l].aph,
+                    r[0].ap,
+                    r[0].aph,
+                    r[1].ap,
+                    r[1].aph,
+                    r[2].ap,
+                    r[2].aph
+                )?;
+            }
+        }
+        if let Some(c) = self.classes.first() {
+            write!(f, "\n{} 3D AP R40 moderate by distance:", c.class)?;
+            for b in self.by_range.iter().filter(|b| b.num_objects > 0) {
+                write!(f, " {}-{} m {:.1} ({});", b.lo, b.hi, b.three_d.r40, b.num_objects)?;
+            }
+            writeln!(f)?;
+        }
         Ok(())
     }
 }
@@ -93,21 +172,21 @@ pub fn to_kitti(d: &Detection, classes: &[ObjectClass], calib: &Calib, image: Im
     })
 }
 
-/// Evaluates `model` (in validation mode, on a plain device) on `dataset` at a center and point
-/// budget; writes `{id}.txt` result files to `results` when given.
+/// Evaluates `model` (in validation mode, on a plain device) on `dataset` at `budget`; writes
+/// `{id}.txt` result files to `results` when given.
 pub fn evaluate(
     model: &StarNet,
     cfg: &ExperimentConfig,
     dataset: &KittiDataset,
-    num_centers: usize,
-    num_points: usize,
+    budget: Budget,
     results: Option<&Path>,
 ) -> Result<EvalReport> {
     let device = starnet_model::backend::default_device();
     let pipeline = PipelineConfig {
-        num_centers,
+        num_centers: budget.num_centers,
+        target: budget.target,
         gather: GatherConfig {
-            num_points,
+            num_points: budget.num_points,
             radius: cfg.pipeline.gather.radius,
         },
         ..cfg.pipeline.clone()
@@ -115,6 +194,8 @@ pub fn evaluate(
     let nms = cfg.nms_config();
     let anchors = &cfg.model.anchors;
     let mut frames = Vec::new();
+    let mut calibs = Vec::new();
+    let mut waymo_frames = Vec::new();
     let mut times = Vec::new();
     for (chunk_i, ids) in dataset.ids().chunks(cfg.eval.batch_size).enumerate() {
         let start = Instant::now();
@@ -137,13 +218,27 @@ pub fn evaluate(
             .collect();
         let out = model.forward(make_input(&prepared.iter().collect::<Vec<_>>(), &device));
         for (k, (frame, p)) in loaded.into_iter().zip(&prepared).enumerate() {
-            let dets: Vec<KittiObject> = decode_frame(&out, k, p, anchors, &nms)
+            // The labels cover the camera's view: a detection counts when it projects into it.
+            let (dets, lidar): (Vec<KittiObject>, Vec<WaymoDetection>) = decode_frame(&out, k, p, anchors, &nms)
                 .iter()
-                .filter_map(|d| to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size))
-                .collect();
+                .filter_map(|d| {
+                    let kitti = to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size)?;
+                    let lidar = WaymoDetection {
+                        class: kitti.class,
+                        b: d.b,
+                        score: d.score,
+                    };
+                    Some((kitti, lidar))
+                })
+                .unzip();
             if let Some(dir) = results {
                 write_results(&dir.join(format!("{}.txt", frame.id)), &dets)?;
             }
+            waymo_frames.push(WaymoFrame {
+                objects: waymo_objects(&frame),
+                detections: lidar,
+            });
+            calibs.push(frame.calib.clone());
             frames.push((frame.objects, dets));
         }
         let per_frame = start.elapsed().as_secs_f64() * 1e3 / ids.len() as f64;
@@ -157,11 +252,28 @@ pub fn evaluate(
         .unwrap_or(0.0);
     Ok(EvalReport {
         frames: frames.len(),
-        num_centers,
-        num_points,
-        gflop_per_frame: forward_gflop(&cfg.model_config(), num_centers, num_points),
+        num_centers: budget.num_centers,
+        num_points: budget.num_points,
+        target: budget.target,
+        gflop_per_frame: forward_gflop(&cfg.model_config(), budget.model_centers(), budget.num_points),
         latency_ms_mean: times.iter().sum::<f64>() / times.len().max(1) as f64,
         latency_ms_p95: p95,
         classes: kitti_ap(&frames, &cfg.data.classes),
+        waymo: waymo_ap(&waymo_frames, &cfg.data.classes),
+        by_range: ap_by_range(&frames, &calibs, cfg.data.classes[0], RANGE_BINS_MAX_M),
     })
+}
+
+/// A frame's labelled objects (DontCare aside) as Waymo ground truth, with the LiDAR returns
+/// inside each box counted from the scan.
+pub fn waymo_objects(frame: &Frame) -> Vec<WaymoObject> {
+    frame
+        .labelled_boxes()
+        .into_iter()
+        .map(|(o, b)| WaymoObject {
+            class: o.class,
+            num_points: b.count_points_inside(&frame.points) as u32,
+            b,
+        })
+        .collect()
 }

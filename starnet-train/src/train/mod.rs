@@ -2,12 +2,14 @@
 
 mod checkpoint;
 mod clip;
+mod ema;
 mod evaluate;
 mod schedule;
 mod trainer;
 
-pub use checkpoint::{TrainState, latest_checkpoint, load_checkpoint, load_model, save_checkpoint};
+pub use checkpoint::{Restored, TrainState, latest_checkpoint, load_checkpoint, load_model, save_checkpoint};
 pub use clip::clip_global_norm;
-pub use evaluate::{EvalReport, evaluate, to_kitti};
+pub use ema::WeightEma;
+pub use evaluate::{Budget, EvalReport, RANGE_BINS_MAX_M, evaluate, to_kitti, waymo_objects};
 pub use schedule::lr_multiplier;
 pub use trainer::{TrainOptions, TrainSummary, ensure_data, run_dir_for, train};

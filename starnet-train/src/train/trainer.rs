@@ -7,9 +7,10 @@
 //! Determinism: the data order is a function of (seed, epoch) and item `k`'s randomness of
 //! (seed, k), so a resumed run sees exactly the items the uninterrupted one would have.
 
-use super::checkpoint::{TrainState, latest_checkpoint, load_checkpoint, prune, save_checkpoint};
+use super::checkpoint::{Restored, TrainState, latest_checkpoint, load_checkpoint, prune, save_checkpoint};
 use super::clip::clip_global_norm;
-use super::evaluate::{EvalReport, evaluate};
+use super::ema::WeightEma;
+use super::evaluate::{Budget, EvalReport, evaluate};
 use super::schedule::lr_multiplier;
 use crate::config::{ExperimentConfig, to_toml};
 use crate::prepare::database_path;
@@ -119,19 +120,33 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     let adam = AdamConfig::new()
         .with_epsilon(cfg.train.adam_epsilon)
         .with_weight_decay(Some(WeightDecayConfig::new(cfg.train.l2)));
-    let (mut model, mut optim, mut state) = match &existing {
+    let Restored {
+        mut model,
+        mut optim,
+        mut ema,
+        mut state,
+    } = match &existing {
         Some(dir) => {
             println!("resuming from {}", dir.display());
-            load_checkpoint(dir, model_cfg.init(&device), &adam)?
+            load_checkpoint(dir, model_cfg.init(&device), &adam, cfg.train.ema_decay)?
         }
-        None => (
-            model_cfg.init(&device),
-            adam.init(),
-            TrainState {
-                step: 0,
-                best_metric: None,
-            },
-        ),
+        None => {
+            let model = model_cfg.init(&device);
+            Restored {
+                ema: (cfg.train.ema_decay > 0.0).then(|| WeightEma::new(cfg.train.ema_decay, &model)),
+                model,
+                optim: adam.init(),
+                state: TrainState {
+                    step: 0,
+                    best_metric: None,
+                },
+            }
+        }
+    };
+    // The model evaluated and kept as `best`: the averaged weights when there is an EMA.
+    let eval_model = |model: &starnet_model::nn::StarNet, ema: &Option<WeightEma>| match ema {
+        Some(e) => e.apply(model),
+        None => model.valid(),
     };
 
     let db = if cfg.augment.db_paste.enabled {
@@ -182,8 +197,15 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let mut interrupted = false;
     let mut clock = Instant::now();
-    let save = |model: &_, optim: &_, state: &TrainState| -> Result<()> {
-        save_checkpoint(&ckpt_dir, &format!("step-{:08}", state.step), model, optim, state)?;
+    let save = |model: &_, optim: &_, ema: &Option<WeightEma>, state: &TrainState| -> Result<()> {
+        save_checkpoint(
+            &ckpt_dir,
+            &format!("step-{:08}", state.step),
+            model,
+            optim,
+            ema.as_ref(),
+            state,
+        )?;
         prune(&ckpt_dir, cfg.train.keep_last.max(1));
         Ok(())
     };
@@ -218,6 +240,9 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
         let lr = cfg.train.learning_rate * lr_multiplier(state.step, decay_start, total);
         model = optim.step(lr, model, grads);
         state.step += 1;
+        if let Some(e) = ema.as_mut() {
+            e.update(&model, state.step);
+        }
         let fps = batch as f64 / clock.elapsed().as_secs_f64();
         clock = Instant::now();
         let epoch = state.step as f64 / steps_per_epoch as f64;
@@ -240,14 +265,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
             let due =
                 cfg.train.eval_every > 0 && epoch_done.is_multiple_of(cfg.train.eval_every as u64) && state.step < end;
             if due {
-                let report = evaluate(
-                    &model.valid(),
-                    cfg,
-                    &val_set,
-                    cfg.eval.num_centers,
-                    cfg.eval.num_points,
-                    None,
-                )?;
+                let report = evaluate(&eval_model(&model, &ema), cfg, &val_set, Budget::of(cfg), None)?;
                 writeln!(
                     log,
                     "{}",
@@ -256,16 +274,16 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
                 .map_err(|e| starnet_data::DataError::io(&log_path, e))?;
                 if state.best_metric.is_none_or(|b| report.headline() > b) {
                     state.best_metric = Some(report.headline());
-                    save_checkpoint(&ckpt_dir, "best", &model, &optim, &state)?;
+                    save_checkpoint(&ckpt_dir, "best", &model, &optim, ema.as_ref(), &state)?;
                 }
             }
-            save(&model, &optim, &state)?;
+            save(&model, &optim, &ema, &state)?;
         }
     }
     bar.finish_and_clear();
     log.flush().map_err(|e| starnet_data::DataError::io(&log_path, e))?;
     if interrupted {
-        save(&model, &optim, &state)?;
+        save(&model, &optim, &ema, &state)?;
         println!(
             "stopped at step {}: checkpoint saved, continue with --resume",
             state.step
@@ -279,16 +297,15 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     }
     let results = run_dir.join("results");
     let report = evaluate(
-        &model.valid(),
+        &eval_model(&model, &ema),
         cfg,
         &val_set,
-        cfg.eval.num_centers,
-        cfg.eval.num_points,
+        Budget::of(cfg),
         Some(&results),
     )?;
     if state.best_metric.is_none_or(|b| report.headline() >= b) {
         state.best_metric = Some(report.headline());
-        save_checkpoint(&ckpt_dir, "best", &model, &optim, &state)?;
+        save_checkpoint(&ckpt_dir, "best", &model, &optim, ema.as_ref(), &state)?;
     }
     starnet_data::io::atomic_write(
         &run_dir.join("eval.json"),

@@ -1,0 +1,158 @@
+//! `starnet eval`: one checkpoint over a grid of center/point budgets (StarNet's figure 7: one
+//! model, many compute costs). Each budget gets its KITTI result files and `eval.json`; the
+//! sweep gets a table (`budget.md`, `budget.json`) and two plots: AP against GFLOP per frame with
+//! one curve per points value (`budget_gflop.png`) and AP against latency (`budget_latency.png`).
+
+use crate::Result;
+use crate::config::ExperimentConfig;
+use crate::render::{LinePlot, Series};
+use crate::train::{Budget, EvalReport, evaluate};
+use starnet_data::io::atomic_write;
+use starnet_data::kitti::KittiDataset;
+use starnet_data::sampling::CenterTarget;
+use starnet_model::nn::StarNet;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The budgets of a sweep: every (centers, points) pair, centers outermost.
+pub fn budget_grid(centers: &[usize], points: &[usize], target: CenterTarget) -> Vec<Budget> {
+    centers
+        .iter()
+        .flat_map(|&num_centers| {
+            points.iter().map(move |&num_points| Budget {
+                num_centers,
+                num_points,
+                target,
+            })
+        })
+        .collect()
+}
+
+/// The folder name of a budget's outputs: `c256_p32`, or `c256_p32_nearest128`.
+pub fn budget_dir_name(b: &Budget) -> String {
+    match b.target {
+        CenterTarget::All => format!("c{}_p{}", b.num_centers, b.num_points),
+        CenterTarget::Nearest(n) => format!("c{}_p{}_nearest{n}", b.num_centers, b.num_points),
+    }
+}
+
+/// Evaluates `model` at every budget, calling `on_report` after each; with `out`, writes each
+/// budget's results into `out/{budget_dir_name}/` and, for more than one budget, the sweep's
+/// table and plots into `out/`.
+pub fn sweep(
+    model: &StarNet,
+    cfg: &ExperimentConfig,
+    dataset: &KittiDataset,
+    budgets: &[Budget],
+    out: Option<&Path>,
+    on_report: &mut dyn FnMut(&EvalReport),
+) -> Result<Vec<EvalReport>> {
+    let mut reports = Vec::with_capacity(budgets.len());
+    for b in budgets {
+        let dir = out.map(|o| o.join(budget_dir_name(b)));
+        let report = evaluate(model, cfg, dataset, *b, dir.as_deref())?;
+        if let Some(d) = &dir {
+            let json = serde_json::to_string_pretty(&report).expect("reports serialise");
+            atomic_write(&d.join("eval.json"), json.as_bytes())?;
+        }
+        on_report(&report);
+        reports.push(report);
+    }
+    if let (Some(o), true) = (out, reports.len() > 1) {
+        write_sweep(o, &reports)?;
+    }
+    Ok(reports)
+}
+
+/// The sweep as a Markdown table: budget, GFLOP, latency and the headline APs.
+pub fn budget_table(reports: &[EvalReport]) -> String {
+    let class = reports
+        .first()
+        .and_then(|r| r.classes.first())
+        .map_or("-".into(), |c| c.class.to_string());
+    let mut t = format!(
+        "| centers | points | GFLOP / frame | latency mean (ms) | p95 (ms) | {class} 3D R40 mod | BEV R40 mod | LEVEL_1 AP | LEVEL_1 APH |\n|---|---|---|---|---|---|---|---|---|\n"
+    );
+    for r in reports {
+        let (three_d, bev) = r
+            .classes
+            .first()
+            .map_or((0.0, 0.0), |c| (c.three_d[1].r40, c.bev[1].r40));
+        let waymo = r.waymo.first().map(|w| w.levels[0]).unwrap_or_default();
+        let centers = match r.target {
+            CenterTarget::All => r.num_centers.to_string(),
+            t => format!("{} ({t})", r.num_centers),
+        };
+        let _ = writeln!(
+            t,
+            "| {centers} | {} | {:.2} | {:.1} | {:.1} | {three_d:.2} | {bev:.2} | {:.2} | {:.2} |",
+            r.num_points, r.gflop_per_frame, r.latency_ms_mean, r.latency_ms_p95, waymo.ap, waymo.aph
+        );
+    }
+    t
+}
+
+/// The two sweep plots: AP against GFLOP per frame (one curve per points value, by centers) and
+/// AP against mean latency.
+pub fn budget_plots(reports: &[EvalReport]) -> [LinePlot; 2] {
+    let mut points: Vec<usize> = reports.iter().map(|r| r.num_points).collect();
+    points.sort_unstable();
+    points.dedup();
+    let ap = |r: &EvalReport| r.classes.first().map_or(0.0, |c| c.three_d[1].r40);
+    let curve = |p: usize, x: &dyn Fn(&EvalReport) -> f64| {
+        let mut pts: Vec<(f64, f64)> = reports
+            .iter()
+            .filter(|r| r.num_points == p)
+            .map(|r| (x(r), ap(r)))
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Series {
+            name: format!("{p} POINTS"),
+            points: pts,
+        }
+    };
+    let y_label = "3D AP R40 MODERATE (%)".to_string();
+    let gflop = LinePlot {
+        title: "AP VS COMPUTE: ONE CHECKPOINT, CENTERS VARIED ALONG EACH CURVE".into(),
+        x_label: "GFLOP PER FRAME".into(),
+        y_label: y_label.clone(),
+        series: points.iter().map(|&p| curve(p, &|r| r.gflop_per_frame)).collect(),
+        log_x: true,
+        y_range: None,
+    };
+    let latency = LinePlot {
+        title: "AP VS LATENCY (PREPARE + FORWARD + DECODE, MEAN PER FRAME)".into(),
+        x_label: "MS PER FRAME".into(),
+        y_label,
+        series: points.iter().map(|&p| curve(p, &|r| r.latency_ms_mean)).collect(),
+        log_x: true,
+        y_range: None,
+    };
+    [gflop, latency]
+}
+
+/// Writes `budget.md`, `budget.json`, `budget_gflop.png` and `budget_latency.png` into `out`.
+pub fn write_sweep(out: &Path, reports: &[EvalReport]) -> Result<()> {
+    atomic_write(&out.join("budget.md"), budget_table(reports).as_bytes())?;
+    let json = serde_json::to_string_pretty(reports).expect("reports serialise");
+    atomic_write(&out.join("budget.json"), json.as_bytes())?;
+    let [gflop, latency] = budget_plots(reports);
+    gflop.render().save_png(&out.join("budget_gflop.png"))?;
+    latency.render().save_png(&out.join("budget_latency.png"))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_is_centers_major_and_names_are_unique() {
+        let grid = budget_grid(&[64, 128], &[16, 32], CenterTarget::All);
+        let names: Vec<String> = grid.iter().map(budget_dir_name).collect();
+        assert_eq!(names, ["c64_p16", "c64_p32", "c128_p16", "c128_p32"]);
+        let near = budget_grid(&[256], &[32], CenterTarget::Nearest(64));
+        assert_eq!(budget_dir_name(&near[0]), "c256_p32_nearest64");
+        assert_eq!(near[0].model_centers(), 64);
+    }
+}
