@@ -10,7 +10,7 @@
 use crate::{Result, TrainError};
 use serde::{Deserialize, Serialize};
 use starnet_data::augment::AugmentConfig;
-use starnet_data::kitti::ObjectClass;
+use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::{AnchorGrid, PipelineConfig};
 use starnet_model::assign::AssignConfig;
 use starnet_model::loss::{HeadingLoss, LossConfig};
@@ -35,6 +35,9 @@ pub struct DataSection {
     pub train_split: String,
     /// Validation split.
     pub val_split: String,
+    /// Labels to train and evaluate on: `label_2` (KITTI, camera view) or `label_360` (the
+    /// simulator's every-object sidecar, evaluated Waymo-style).
+    pub labels: LabelSource,
 }
 
 /// Model widths and anchors.
@@ -172,6 +175,7 @@ impl Default for ExperimentConfig {
                 classes: vec![ObjectClass::Car],
                 train_split: "train".into(),
                 val_split: "val".into(),
+                labels: LabelSource::Camera,
             },
             pipeline: PipelineConfig::default(),
             augment: AugmentConfig::default(),
@@ -233,6 +237,11 @@ impl ExperimentConfig {
             self.model.anchors.clone(),
             self.data.classes.len(),
         )
+    }
+
+    /// A split of the config's dataset, read with the config's labels.
+    pub fn dataset(&self, split: &str) -> Result<KittiDataset> {
+        Ok(KittiDataset::open(&self.data.root, Some(split))?.with_labels(self.data.labels))
     }
 
     /// The loss's Burn config.
@@ -497,9 +506,23 @@ mod tests {
     #[test]
     fn shipped_configs_load() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
-        for name in ["quickstart.toml", "reference.toml"] {
-            load_config(&dir.join(name), &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let mut names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect();
+        names.sort();
+        assert!(names.len() >= 5, "{names:?}");
+        for path in names {
+            let cfg = load_config(&path, &[]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert!(!cfg.model.anchors.priors.is_empty(), "{}", path.display());
         }
+        // The presets say what they claim.
+        let ped = load_config(&dir.join("sim-360-ped.toml"), &[]).unwrap();
+        assert_eq!(ped.data.labels, LabelSource::AllAround);
+        assert!(!ped.pipeline.pool.camera_frustum);
+        let car = load_config(&dir.join("kitti-car.toml"), &[]).unwrap();
+        assert_eq!(car.model_config().featurizer.cell_dim(), 1440);
     }
 
     #[test]

@@ -314,7 +314,7 @@ fn main() -> anyhow::Result<()> {
             }
             let device = starnet_model::backend::default_device();
             let model = load_model(&checkpoint, cfg.model_config().init(&device))?;
-            let ds = KittiDataset::open(&cfg.data.root, Some(&split))?;
+            let ds = cfg.dataset(&split)?;
             let or = |v: Vec<usize>, d: usize| if v.is_empty() { vec![d] } else { v };
             let budgets = budget_grid(
                 &or(centers, cfg.eval.num_centers),

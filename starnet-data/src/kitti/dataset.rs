@@ -1,9 +1,24 @@
 //! A KITTI object-detection root: `ROOT/{training,testing}/{velodyne,label_2,calib,image_2}`
-//! and `ROOT/ImageSets/*.txt`.
+//! and `ROOT/ImageSets/*.txt`; with the simulator's data, `label_360/` may stand in for
+//! `label_2/` (every object around the sensor, not only the camera's view).
 
-use super::{Calib, ImageSize, KittiObject, ObjectClass, read_labels, read_points, read_split};
+use super::{Calib, ImageSize, KittiObject, ObjectClass, observation_angle, read_labels, read_points, read_split};
+use crate::sim::read_sidecar;
 use crate::{Box3d, DataError, Point, Result};
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// Which labels a dataset reads.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LabelSource {
+    /// KITTI's `label_2/`: the objects in camera 2's view.
+    #[default]
+    #[serde(rename = "label_2")]
+    Camera,
+    /// The simulator's `label_360/` sidecar: every object around the sensor (Waymo-style).
+    #[serde(rename = "label_360")]
+    AllAround,
+}
 
 /// One loaded frame.
 #[derive(Debug, Clone)]
@@ -37,6 +52,7 @@ pub struct KittiDataset {
     root: PathBuf,
     subset: &'static str,
     ids: Vec<String>,
+    labels: LabelSource,
 }
 
 impl KittiDataset {
@@ -50,7 +66,23 @@ impl KittiDataset {
             Some(s) => read_split(&root.join("ImageSets").join(format!("{s}.txt")))?,
             None => list_ids(&root.join(subset).join("velodyne"))?,
         };
-        Ok(Self { root, subset, ids })
+        Ok(Self {
+            root,
+            subset,
+            ids,
+            labels: LabelSource::Camera,
+        })
+    }
+
+    /// The same frames, labelled from `labels`.
+    pub fn with_labels(mut self, labels: LabelSource) -> Self {
+        self.labels = labels;
+        self
+    }
+
+    /// Where the labels come from.
+    pub fn labels(&self) -> LabelSource {
+        self.labels
     }
 
     /// The frame ids, in split (or id) order.
@@ -68,7 +100,9 @@ impl KittiDataset {
         self.root.join(self.subset).join(dir).join(format!("{id}.{ext}"))
     }
 
-    /// Loads a frame: points, calib and (on `training`) labels; all must exist.
+    /// Loads a frame: points, calib and (on `training`) labels; all must exist. `label_360`
+    /// objects become label lines through the calibration (no truncation; the 2D box is the
+    /// projection, empty when the box is behind the camera).
     pub fn load(&self, id: &str) -> Result<Frame> {
         let existing = |dir: &str, ext: &str| -> Result<PathBuf> {
             let p = self.path(dir, id, ext);
@@ -83,15 +117,30 @@ impl KittiDataset {
         };
         let points = read_points(&existing("velodyne", "bin")?)?;
         let calib = Calib::read(&existing("calib", "txt")?)?;
-        let objects = match self.subset {
-            "training" => read_labels(&existing("label_2", "txt")?)?,
-            _ => Vec::new(),
-        };
         let image = self.path("image_2", id, "png");
         let image_size = if image.is_file() {
             png_size(&image)?
         } else {
             ImageSize::KITTI
+        };
+        let objects = match (self.subset, self.labels) {
+            ("training", LabelSource::Camera) => read_labels(&existing("label_2", "txt")?)?,
+            ("training", LabelSource::AllAround) => read_sidecar(&existing("label_360", "txt")?)?
+                .into_iter()
+                .map(|o| {
+                    let cam = calib.box_to_label(&o.b);
+                    KittiObject {
+                        class: o.class,
+                        truncated: 0.0,
+                        occluded: o.occlusion,
+                        alpha: observation_angle(&cam),
+                        bbox: calib.image_bbox(&cam, image_size).unwrap_or([0.0; 4]),
+                        cam,
+                        score: None,
+                    }
+                })
+                .collect(),
+            _ => Vec::new(),
         };
         Ok(Frame {
             id: id.to_string(),

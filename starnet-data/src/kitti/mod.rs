@@ -12,7 +12,7 @@ mod velodyne;
 
 pub use calib::{Calib, KITTI_000000_CALIB, format_c_exp};
 pub use camera::{ImageSize, observation_angle};
-pub use dataset::{Frame, KittiDataset};
+pub use dataset::{Frame, KittiDataset, LabelSource};
 pub use label::{
     CameraBox, Difficulty, KittiObject, ObjectClass, format_labels, parse_labels, read_labels, write_labels,
     write_results,

@@ -11,7 +11,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use starnet_data::kitti::{
-    Calib, Frame, ImageSize, KittiDataset, KittiObject, ObjectClass, observation_angle, write_results,
+    Calib, Frame, ImageSize, KittiDataset, KittiObject, LabelSource, ObjectClass, observation_angle, write_results,
 };
 use starnet_data::sampling::{CenterTarget, GatherConfig, PipelineConfig, prepare_frame};
 use starnet_data::sim::sub_seed;
@@ -78,9 +78,14 @@ pub struct EvalReport {
 }
 
 impl EvalReport {
-    /// The headline: 3D AP (R40) at moderate difficulty of the first class.
+    /// The headline: 3D AP (R40) at moderate difficulty of the first class, or with 360° labels
+    /// (no KITTI metrics) its Waymo-style LEVEL_1 AP.
     pub fn headline(&self) -> f64 {
-        self.classes.first().map_or(0.0, |c| c.three_d[1].r40)
+        self.classes
+            .first()
+            .map(|c| c.three_d[1].r40)
+            .or_else(|| self.waymo.first().map(|w| w.levels[0].ap))
+            .unwrap_or(0.0)
     }
 }
 
@@ -100,11 +105,13 @@ impl std::fmt::Display for EvalReport {
             self.latency_ms_mean,
             self.latency_ms_p95
         )?;
-        writeln!(
-            f,
-            "| class | IoU | metric | easy R40 | moderate R40 | hard R40 | easy R11 | moderate R11 | hard R11 |"
-        )?;
-        writeln!(f, "|---|---|---|---|---|---|---|---|---|")?;
+        if !self.classes.is_empty() {
+            writeln!(
+                f,
+                "| class | IoU | metric | easy R40 | moderate R40 | hard R40 | easy R11 | moderate R11 | hard R11 |"
+            )?;
+            writeln!(f, "|---|---|---|---|---|---|---|---|---|")?;
+        }
         for c in &self.classes {
             let mut rows = vec![("3D", c.three_d), ("BEV", c.bev), ("2D", c.bbox)];
             if let Some(a) = c.aos {
@@ -145,7 +152,7 @@ impl std::fmt::Display for EvalReport {
                 )?;
             }
         }
-        if let Some(c) = self.classes.first() {
+        if let (Some(c), false) = (self.classes.first(), self.by_range.is_empty()) {
             write!(f, "\n{} 3D AP R40 moderate by distance:", c.class)?;
             for b in self.by_range.iter().filter(|b| b.num_objects > 0) {
                 write!(f, " {}-{} m {:.1} ({});", b.lo, b.hi, b.three_d.r40, b.num_objects)?;
@@ -193,6 +200,8 @@ pub fn evaluate(
     };
     let nms = cfg.nms_config();
     let anchors = &cfg.model.anchors;
+    // KITTI's metrics need the camera-view labels; 360° labels get the Waymo-style ones only.
+    let camera_view = dataset.labels() == LabelSource::Camera;
     let mut frames = Vec::new();
     let mut calibs = Vec::new();
     let mut waymo_frames = Vec::new();
@@ -218,19 +227,21 @@ pub fn evaluate(
             .collect();
         let out = model.forward(make_input(&prepared.iter().collect::<Vec<_>>(), &device));
         for (k, (frame, p)) in loaded.into_iter().zip(&prepared).enumerate() {
-            // The labels cover the camera's view: a detection counts when it projects into it.
-            let (dets, lidar): (Vec<KittiObject>, Vec<WaymoDetection>) = decode_frame(&out, k, p, anchors, &nms)
+            let decoded = decode_frame(&out, k, p, anchors, &nms);
+            let dets: Vec<KittiObject> = decoded
                 .iter()
-                .filter_map(|d| {
-                    let kitti = to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size)?;
-                    let lidar = WaymoDetection {
-                        class: kitti.class,
-                        b: d.b,
-                        score: d.score,
-                    };
-                    Some((kitti, lidar))
+                .filter_map(|d| to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size))
+                .collect();
+            // Camera-view labels: a detection counts when it projects into the image.
+            let lidar = decoded
+                .iter()
+                .filter(|d| !camera_view || to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size).is_some())
+                .map(|d| WaymoDetection {
+                    class: cfg.data.classes[d.class],
+                    b: d.b,
+                    score: d.score,
                 })
-                .unzip();
+                .collect();
             if let Some(dir) = results {
                 write_results(&dir.join(format!("{}.txt", frame.id)), &dets)?;
             }
@@ -258,9 +269,17 @@ pub fn evaluate(
         gflop_per_frame: forward_gflop(&cfg.model_config(), budget.model_centers(), budget.num_points),
         latency_ms_mean: times.iter().sum::<f64>() / times.len().max(1) as f64,
         latency_ms_p95: p95,
-        classes: kitti_ap(&frames, &cfg.data.classes),
+        classes: if camera_view {
+            kitti_ap(&frames, &cfg.data.classes)
+        } else {
+            Vec::new()
+        },
         waymo: waymo_ap(&waymo_frames, &cfg.data.classes),
-        by_range: ap_by_range(&frames, &calibs, cfg.data.classes[0], RANGE_BINS_MAX_M),
+        by_range: if camera_view {
+            ap_by_range(&frames, &calibs, cfg.data.classes[0], RANGE_BINS_MAX_M)
+        } else {
+            Vec::new()
+        },
     })
 }
 

@@ -23,7 +23,6 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::GtDatabase;
-use starnet_data::kitti::KittiDataset;
 use starnet_data::loader::Loader;
 use starnet_data::sampling::{Augmentation, prepare_frame};
 use starnet_data::sim::{SynthConfig, sub_seed, synth_frames};
@@ -107,8 +106,8 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     std::fs::create_dir_all(&ckpt_dir).map_err(|e| starnet_data::DataError::io(&ckpt_dir, e))?;
     starnet_data::io::atomic_write(&run_dir.join("config.toml"), to_toml(cfg).as_bytes())?;
 
-    let train_set = KittiDataset::open(&cfg.data.root, Some(&cfg.data.train_split))?;
-    let val_set = KittiDataset::open(&cfg.data.root, Some(&cfg.data.val_split))?;
+    let train_set = cfg.dataset(&cfg.data.train_split)?;
+    let val_set = cfg.dataset(&cfg.data.val_split)?;
     let batch = cfg.train.batch_size;
     let steps_per_epoch = (train_set.ids().len() / batch).max(1) as u64;
     let total = cfg.train.epochs as u64 * steps_per_epoch;
