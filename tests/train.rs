@@ -108,6 +108,13 @@ fn resuming_after_a_crash_gives_the_same_parameters() {
     );
     assert!(!pa.is_empty());
     assert!(pa == pb, "resumed parameters differ from the uninterrupted run's");
+    // So do the averaged weights the checkpoint keeps for evaluation.
+    let (ea, eb) = (
+        parameters(&last(&a).join("ema.bpk")),
+        parameters(&last(&b).join("ema.bpk")),
+    );
+    assert!(ea == eb, "resumed EMA weights differ");
+    assert!(ea != pa, "the EMA should lag the trained weights");
     // The log has one line per step of each run.
     let log = std::fs::read_to_string(b.join("log.jsonl")).unwrap();
     assert_eq!(
@@ -149,6 +156,8 @@ fn train_then_eval_through_the_cli() {
             run.join("checkpoints/best").to_str().unwrap(),
             "--centers",
             "16,32",
+            "--points",
+            "4,8",
             "--out",
             results.to_str().unwrap(),
         ],
@@ -156,8 +165,60 @@ fn train_then_eval_through_the_cli() {
     );
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(out.matches("| Car | 0.7 | 3D |").count(), 2, "{out}");
-    assert!(results.join("c16_p8/eval.json").is_file() && results.join("c32_p8/eval.json").is_file());
+    assert_eq!(out.matches("| Car | 0.7 | 3D |").count(), 4, "{out}");
+    assert_eq!(out.matches("| Car | 0.7 | LEVEL_1 |").count(), 4, "{out}");
+    for b in ["c16_p4", "c16_p8", "c32_p4", "c32_p8"] {
+        assert!(results.join(b).join("eval.json").is_file(), "{b}");
+    }
+    // The sweep's table and plots.
+    assert_eq!(
+        std::fs::read_to_string(results.join("budget.md"))
+            .unwrap()
+            .lines()
+            .count(),
+        6
+    );
+    for png in ["budget_gflop.png", "budget_latency.png"] {
+        assert!(
+            std::fs::read(results.join(png)).unwrap().starts_with(b"\x89PNG"),
+            "{png}"
+        );
+    }
+    // Compute is linear in the centers at a fixed point count.
+    let reports: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(results.join("budget.json")).unwrap()).unwrap();
+    let gflop = |i: usize| reports[i]["gflop_per_frame"].as_f64().unwrap();
+    assert!((gflop(2) / gflop(0) - 2.0).abs() < 1e-9 && (gflop(3) / gflop(1) - 2.0).abs() < 1e-9);
+    // Targeting the 16 nearest of 32 sampled centers costs what 16 centers cost.
+    let near = dir.path().join("near-out");
+    let o = starnet(
+        &[
+            "eval",
+            "--checkpoint",
+            run.join("checkpoints/best").to_str().unwrap(),
+            "--centers",
+            "32",
+            "--target",
+            "nearest:16",
+            "--out",
+            near.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(near.join("c32_p8_nearest16/eval.json")).unwrap()).unwrap();
+    assert_eq!(report["target"], "nearest:16");
+    let c16: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(results.join("c16_p8/eval.json")).unwrap()).unwrap();
+    assert_eq!(report["gflop_per_frame"], c16["gflop_per_frame"]);
+    assert_eq!(report["by_range"].as_array().unwrap().len(), 8);
+    // Training curves from the run's log.
+    let o = starnet(&["plot", "--run", run.to_str().unwrap()], dir.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for png in ["loss.png", "lr.png"] {
+        assert!(std::fs::read(run.join(png)).unwrap().starts_with(b"\x89PNG"), "{png}");
+    }
     // Result files for every validation frame, in the submission format.
     let val = std::fs::read_to_string(dir.path().join("data/ImageSets/val.txt")).unwrap();
     for id in val.lines() {

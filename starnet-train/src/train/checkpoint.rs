@@ -93,15 +93,17 @@ pub struct Restored {
     pub state: TrainState,
 }
 
-/// Loads a whole checkpoint folder for resuming; `ema_decay` > 0 restores the weight EMA.
-pub fn load_checkpoint(dir: &Path, model: StarNet, adam: &AdamConfig, ema_decay: f64) -> Result<Restored> {
-    let fresh = model.clone();
-    let model = load_model(&dir.join("model.bpk"), model)?;
+/// Loads a whole checkpoint folder for resuming into models made by `init`; `ema_decay` > 0
+/// restores the weight EMA.
+pub fn load_checkpoint(dir: &Path, init: impl Fn() -> StarNet, adam: &AdamConfig, ema_decay: f64) -> Result<Restored> {
+    let model = load_model(&dir.join("model.bpk"), init())?;
     let ema = (ema_decay > 0.0)
         .then(|| -> Result<WeightEma> {
             let file = dir.join("ema.bpk");
             let averaged = if file.is_file() {
-                load_model(&file, fresh)?
+                // A module of its own: loading into a clone of `model` would share its
+                // not-yet-initialised parameters.
+                load_model(&file, init())?
             } else {
                 model.clone()
             };

@@ -127,7 +127,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     } = match &existing {
         Some(dir) => {
             println!("resuming from {}", dir.display());
-            load_checkpoint(dir, model_cfg.init(&device), &adam, cfg.train.ema_decay)?
+            load_checkpoint(dir, || model_cfg.init(&device), &adam, cfg.train.ema_decay)?
         }
         None => {
             let model = model_cfg.init(&device);
