@@ -86,9 +86,12 @@ pub fn run_plots(log: &RunLog, name: &str) -> Vec<(&'static str, LinePlot)> {
             .values()
             .filter_map(|l| get(l).map(|v| (l.step as f64, v)))
             .collect();
+        // Smoothed over 1 % of the steps, then thinned to at most ~1,000 vertices.
+        let smoothed = smooth(&raw, (raw.len() / 100).max(1));
+        let stride = smoothed.len().div_ceil(1000).max(1);
         Series {
             name: label.into(),
-            points: smooth(&raw, (raw.len() / 100).max(1)),
+            points: smoothed.into_iter().step_by(stride).collect(),
         }
     };
     let chart = |title: String, y: &str, series: Vec<Series>| LinePlot {

@@ -141,10 +141,12 @@ impl LinePlot {
         for (k, s) in self.series.iter().enumerate() {
             let colour = PALETTE[k % PALETTE.len()];
             let pts: Vec<[f32; 2]> = s.points.iter().map(|&(x, y)| [px(x), py(y)]).collect();
+            // Dense curves (training logs) are lines only; sparse ones get a marker per point.
+            let dense = pts.len() > 60;
             for w in pts.windows(2) {
-                c.line(w[0], w[1], colour, 3);
+                c.line(w[0], w[1], colour, if dense { 1 } else { 3 });
             }
-            for p in &pts {
+            for p in pts.iter().filter(|_| !dense) {
                 c.fill_rect(
                     p[0] as i64 - 4,
                     p[1] as i64 - 4,
