@@ -45,6 +45,7 @@ impl WeightEma {
     /// BatchNorm running statistics stay `model`'s.
     pub fn apply(&self, model: &StarNet) -> StarNet {
         model.valid().map(&mut Replace {
+            field: Vec::new(),
             shadows: &self.shadows,
             next: 0,
         })
@@ -53,26 +54,60 @@ impl WeightEma {
 
 /// Every float parameter of `model`, flattened, on a plain (non-autodiff) device.
 fn flat_params(model: &StarNet) -> Vec<Tensor<1>> {
-    let mut collect = Collect(Vec::new());
+    let mut collect = Collect {
+        field: Vec::new(),
+        params: Vec::new(),
+    };
     model.valid().visit(&mut collect);
-    collect.0
+    collect.params
 }
 
-struct Collect(Vec<Tensor<1>>);
+/// Whether the innermost field is a BatchNorm running statistic: Burn visits those
+/// (`RunningState`) like parameters, but they are buffers, not weights.
+fn is_running_stat(field: &[String]) -> bool {
+    field.last().is_some_and(|f| f.starts_with("running_"))
+}
+
+struct Collect {
+    field: Vec<String>,
+    params: Vec<Tensor<1>>,
+}
 
 impl ModuleVisitor for Collect {
+    fn enter_module(&mut self, name: &str, _container_type: &str) {
+        self.field.push(name.to_string());
+    }
+
+    fn exit_module(&mut self, _name: &str, _container_type: &str) {
+        self.field.pop();
+    }
+
     fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
-        self.0.push(param.val().flatten(0, D - 1));
+        if !is_running_stat(&self.field) {
+            self.params.push(param.val().flatten(0, D - 1));
+        }
     }
 }
 
 struct Replace<'a> {
+    field: Vec<String>,
     shadows: &'a [Tensor<1>],
     next: usize,
 }
 
 impl ModuleMapper for Replace<'_> {
+    fn enter_module(&mut self, name: &str, _container_type: &str) {
+        self.field.push(name.to_string());
+    }
+
+    fn exit_module(&mut self, _name: &str, _container_type: &str) {
+        self.field.pop();
+    }
+
     fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
+        if is_running_stat(&self.field) {
+            return param;
+        }
         let shadow = self.shadows[self.next].clone();
         self.next += 1;
         param.map(|t| shadow.reshape(t.shape()))
@@ -117,5 +152,23 @@ mod tests {
         for (x, y) in pa.iter().zip(&ps) {
             assert_eq!(x.to_data(), y.to_data());
         }
+    }
+
+    #[test]
+    fn running_statistics_are_not_averaged() {
+        let device = starnet_model::backend::default_device();
+        let model = StarNetConfig::small_car().init(&device);
+        // Weights only: per BatchNorm γ and β, not the running mean and variance.
+        struct All<'a>(&'a mut usize);
+        impl ModuleVisitor for All<'_> {
+            fn visit_float<const D: usize>(&mut self, _: &Param<Tensor<D>>) {
+                *self.0 += 1;
+            }
+        }
+        let mut count = 0;
+        model.visit(&mut All(&mut count));
+        let shadows = WeightEma::new(0.99, &model).shadows.len();
+        // small_car: 7 BatchNorms (2 per block × 3 + the projector), each with 2 running stats.
+        assert_eq!(count - shadows, 14);
     }
 }

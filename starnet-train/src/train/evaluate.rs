@@ -207,11 +207,12 @@ pub fn evaluate(
     let mut waymo_frames = Vec::new();
     let mut times = Vec::new();
     for (chunk_i, ids) in dataset.ids().chunks(cfg.eval.batch_size).enumerate() {
-        let start = Instant::now();
         let loaded: Vec<_> = ids
             .iter()
             .map(|id| dataset.load(id))
             .collect::<std::result::Result<_, _>>()?;
+        // Latency: from the loaded scan to the final boxes (reading files and scoring excluded).
+        let start = Instant::now();
         let prepared: Vec<_> = loaded
             .iter()
             .enumerate()
@@ -226,22 +227,30 @@ pub fn evaluate(
             })
             .collect();
         let out = model.forward(make_input(&prepared.iter().collect::<Vec<_>>(), &device));
-        for (k, (frame, p)) in loaded.into_iter().zip(&prepared).enumerate() {
-            let decoded = decode_frame(&out, k, p, anchors, &nms);
-            let dets: Vec<KittiObject> = decoded
+        let decoded: Vec<_> = prepared
+            .iter()
+            .enumerate()
+            .map(|(k, p)| decode_frame(&out, k, p, anchors, &nms))
+            .collect();
+        let per_frame = start.elapsed().as_secs_f64() * 1e3 / ids.len() as f64;
+        times.extend(std::iter::repeat_n(per_frame, ids.len()));
+        for (frame, decoded) in loaded.into_iter().zip(decoded) {
+            let projected: Vec<Option<KittiObject>> = decoded
                 .iter()
-                .filter_map(|d| to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size))
+                .map(|d| to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size))
                 .collect();
             // Camera-view labels: a detection counts when it projects into the image.
             let lidar = decoded
                 .iter()
-                .filter(|d| !camera_view || to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size).is_some())
-                .map(|d| WaymoDetection {
+                .zip(&projected)
+                .filter(|(_, kitti)| !camera_view || kitti.is_some())
+                .map(|(d, _)| WaymoDetection {
                     class: cfg.data.classes[d.class],
                     b: d.b,
                     score: d.score,
                 })
                 .collect();
+            let dets: Vec<KittiObject> = projected.into_iter().flatten().collect();
             if let Some(dir) = results {
                 write_results(&dir.join(format!("{}.txt", frame.id)), &dets)?;
             }
@@ -252,8 +261,6 @@ pub fn evaluate(
             calibs.push(frame.calib.clone());
             frames.push((frame.objects, dets));
         }
-        let per_frame = start.elapsed().as_secs_f64() * 1e3 / ids.len() as f64;
-        times.extend(std::iter::repeat_n(per_frame, ids.len()));
     }
     let mut sorted = times.clone();
     sorted.sort_by(f64::total_cmp);
