@@ -213,6 +213,44 @@ fn train_then_eval_through_the_cli() {
         serde_json::from_str(&std::fs::read_to_string(results.join("c16_p8/eval.json")).unwrap()).unwrap();
     assert_eq!(report["gflop_per_frame"], c16["gflop_per_frame"]);
     assert_eq!(report["by_range"].as_array().unwrap().len(), 8);
+    // Export, then detect with the export on the three real KITTI sweeps (their calibs beside
+    // them): well-formed result files that parse back, and the JSON for each.
+    let export = dir.path().join("export");
+    let o = starnet(
+        &[
+            "export",
+            "--checkpoint",
+            run.join("checkpoints/best").to_str().unwrap(),
+            "--out",
+            export.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sample = std::env::var_os("STARNET_KITTI_SAMPLE")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/kitti-sample"));
+    let detected = dir.path().join("detected");
+    let o = starnet(
+        &[
+            "detect",
+            "--model",
+            export.to_str().unwrap(),
+            "--input",
+            sample.join("training/velodyne").to_str().unwrap(),
+            "--out",
+            detected.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for id in ["000000", "000001", "000002"] {
+        starnet_data::kitti::read_labels(&detected.join(format!("{id}.txt"))).unwrap();
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(detected.join(format!("{id}.json"))).unwrap()).unwrap();
+        assert_eq!(json["calibrated"], true);
+        assert!(json["num_points"].as_u64().unwrap() > 100_000);
+    }
     // Training curves from the run's log.
     let o = starnet(&["plot", "--run", run.to_str().unwrap()], dir.path());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -142,6 +142,18 @@ pub fn write_sweep(out: &Path, reports: &[EvalReport]) -> Result<()> {
     Ok(())
 }
 
+/// Redraws a sweep's table and plots from its `budget.json` (e.g. after a plotting change).
+pub fn replot_sweep(dir: &Path) -> Result<()> {
+    let path = dir.join("budget.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| starnet_data::DataError::io(&path, e))?;
+    let reports: Vec<EvalReport> = serde_json::from_str(&text).map_err(|e| crate::TrainError::Log {
+        path: path.clone(),
+        line: e.line(),
+        message: e.to_string(),
+    })?;
+    write_sweep(dir, &reports)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

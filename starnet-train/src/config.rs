@@ -454,7 +454,22 @@ fn widen_numbers(user: &mut Table, defaults: &Table) {
 
 /// Loads an experiment: `path` (with its bases), then `sets`, over the defaults.
 pub fn load_config(path: &Path, sets: &[String]) -> Result<ExperimentConfig> {
-    let mut user = read_with_bases(path, 0)?;
+    resolve(read_with_bases(path, 0)?, sets, path)
+}
+
+/// Reads an experiment from TOML text (e.g. the config embedded in an export), over the
+/// defaults; errors name `origin`.
+pub fn parse_config(text: &str, origin: &Path) -> Result<ExperimentConfig> {
+    let user = text.parse::<Table>().map_err(|e| TrainError::Config {
+        file: origin.into(),
+        key: "(syntax)".into(),
+        message: e.to_string().trim().to_string(),
+    })?;
+    resolve(user, &[], origin)
+}
+
+/// `user` with `sets` applied, key-checked and merged over the defaults, validated.
+fn resolve(mut user: Table, sets: &[String], path: &Path) -> Result<ExperimentConfig> {
     apply_sets(&mut user, sets)?;
     let mut defaults = Table::try_from(ExperimentConfig::default()).expect("the defaults serialise");
     check_keys(&user, &defaults, "", path)?;

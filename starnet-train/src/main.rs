@@ -5,7 +5,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use starnet_data::kitti::KittiDataset;
 use starnet_data::sampling::{CenterTarget, Sampler};
-use starnet_train::budget::{budget_grid, budget_table, sweep};
+use starnet_train::budget::{budget_grid, budget_table, replot_sweep, sweep};
 use starnet_train::coverage::run_coverage;
 use starnet_train::curves::plot_run;
 use starnet_train::inspect::inspect_frame;
@@ -168,13 +168,53 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Export a checkpoint for other runtimes: model.safetensors (PyTorch names and layouts, the
+    /// config in its metadata), model.json (the contract for host code: features, widths, anchors
+    /// and their order, box coder, classes, NMS, sampling) and golden.safetensors (an input and
+    /// the outputs it must give).
+    Export {
+        /// A checkpoint folder (runs/NAME/checkpoints/best) or its model.bpk.
+        #[arg(long)]
+        checkpoint: PathBuf,
+        /// The run's config (default: the config.toml of the run holding the checkpoint).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Detect objects on raw sweeps (velodyne .bin files): sampling, gathering, the network,
+    /// decoding and NMS at the config's evaluation budget. Writes {id}.json (LiDAR boxes) and,
+    /// with a calibration (--calib, or ROOT/.../calib/{id}.txt beside velodyne/), {id}.txt in
+    /// KITTI's result format.
+    Detect {
+        /// An export folder (holding model.safetensors) or a checkpoint (folder or model.bpk).
+        #[arg(long)]
+        model: PathBuf,
+        /// A .bin file or a folder of them.
+        #[arg(long)]
+        input: PathBuf,
+        /// A KITTI calib file for every sweep.
+        #[arg(long)]
+        calib: Option<PathBuf>,
+        /// With a checkpoint: its config (default: the run's config.toml).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Plot a run's training curves from its log.jsonl: loss.png (total and terms), lr.png and,
-    /// when it evaluated during training, ap.png.
+    /// when it evaluated during training, ap.png. With --budget, redraw an `eval` sweep's table
+    /// and plots from its budget.json instead.
     Plot {
         /// The run folder (holding log.jsonl).
+        #[arg(long, required_unless_present = "budget", conflicts_with = "budget")]
+        run: Option<PathBuf>,
+        /// An `eval --out` folder holding budget.json.
         #[arg(long)]
-        run: PathBuf,
-        /// Output folder (default: the run folder).
+        budget: Option<PathBuf>,
+        /// Output folder for the training curves (default: the run folder).
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -300,15 +340,7 @@ fn main() -> anyhow::Result<()> {
             sets,
             out,
         } => {
-            let config = match config {
-                Some(c) => c,
-                None => checkpoint
-                    .ancestors()
-                    .map(|a| a.join("config.toml"))
-                    .find(|p| p.is_file())
-                    .context("no config.toml above the checkpoint; pass --config")?,
-            };
-            let mut cfg = starnet_train::config::load_config(&config, &sets)?;
+            let mut cfg = starnet_train::config::load_config(&run_config(&checkpoint, config)?, &sets)?;
             if let Some(d) = data {
                 cfg.data.root = d;
             }
@@ -330,9 +362,58 @@ fn main() -> anyhow::Result<()> {
                 print!("{}", budget_table(&reports));
             }
         }
-        Command::Plot { run, out } => {
-            for path in plot_run(&run, out.as_deref())? {
+        Command::Export {
+            checkpoint,
+            config,
+            out,
+        } => {
+            let cfg = starnet_train::config::load_config(&run_config(&checkpoint, config)?, &[])?;
+            let device = starnet_model::backend::default_device();
+            let model = load_model(&checkpoint, cfg.model_config().init(&device))?;
+            for path in starnet_train::export::export(&model, &cfg, &out)? {
                 println!("wrote {}", path.display());
+            }
+        }
+        Command::Detect {
+            model,
+            input,
+            calib,
+            config,
+            out,
+        } => {
+            let (net, cfg) = if model.join("model.safetensors").is_file() {
+                starnet_train::export::load_exported(&model)?
+            } else {
+                let cfg = starnet_train::config::load_config(&run_config(&model, config)?, &[])?;
+                let device = starnet_model::backend::default_device();
+                (load_model(&model, cfg.model_config().init(&device))?, cfg)
+            };
+            let files = starnet_train::detect::sweep_files(&input)?;
+            let sweeps = starnet_train::detect::detect(&net, &cfg, &files, calib.as_deref(), &out)?;
+            for s in &sweeps {
+                println!(
+                    "{}: {} points, {} detections{}",
+                    s.id,
+                    s.num_points,
+                    s.detections.len(),
+                    if s.calibrated {
+                        ""
+                    } else {
+                        " (no calibration: JSON only)"
+                    }
+                );
+            }
+            println!("wrote {} sweeps to {}", sweeps.len(), out.display());
+        }
+        Command::Plot { run, budget, out } => {
+            if let Some(dir) = budget {
+                replot_sweep(&dir)?;
+                println!("wrote {}/budget.md and the budget_*.png plots", dir.display());
+            }
+            if let Some(run) = run {
+                for path in plot_run(&run, out.as_deref())? {
+                    println!("wrote {}", path.display());
+                }
             }
         }
         Command::Config { config, sets } => {
@@ -385,6 +466,18 @@ fn main() -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The config given, or the `config.toml` of the run folder above `checkpoint`.
+fn run_config(checkpoint: &std::path::Path, given: Option<PathBuf>) -> anyhow::Result<PathBuf> {
+    match given {
+        Some(c) => Ok(c),
+        None => checkpoint
+            .ancestors()
+            .map(|a| a.join("config.toml"))
+            .find(|p| p.is_file())
+            .context("no config.toml above the checkpoint; pass --config"),
+    }
 }
 
 /// Parses `SAMPLER:COUNT`.

@@ -13,7 +13,7 @@
 //! (Car 0.7, Pedestrian and Cyclist 0.5). Score thresholds are sampled so that recall moves in
 //! steps of about 1/40, which is why fewer than 40 objects cannot reach every sample.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::{iou_3d, iou_bev};
 use starnet_data::kitti::{KittiObject, ObjectClass};
@@ -43,7 +43,7 @@ pub fn official_min_overlap(class: ObjectClass) -> f32 {
 }
 
 /// AP of one class, difficulty and metric, in percent.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Ap {
     /// 11-point interpolation (recall 0, 0.1, …, 1 via samples 0, 4, …, 40).
     pub r11: f64,
@@ -61,7 +61,7 @@ impl Ap {
 }
 
 /// The results of one class: `[easy, moderate, hard]` per metric.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ClassAp {
     /// The class.
     pub class: ObjectClass,

@@ -3,14 +3,14 @@
 //! distance from the LiDAR, and each bin is evaluated as a dataset of its own.
 
 use super::kitti_ap::{Ap, kitti_ap};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use starnet_data::kitti::{Calib, KittiObject, ObjectClass};
 
 /// Width of a distance bin, metres.
 pub const RANGE_BIN_M: f32 = 10.0;
 
 /// The AP of one distance bin at moderate difficulty.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RangeAp {
     /// Bin start, metres.
     pub lo: f32,

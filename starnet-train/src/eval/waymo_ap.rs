@@ -20,7 +20,7 @@
 
 use super::hungarian::max_weight_matching;
 use super::kitti_ap::official_min_overlap;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::{iou_3d, wrap_angle};
 use starnet_data::kitti::ObjectClass;
@@ -57,7 +57,7 @@ pub struct WaymoFrame {
 }
 
 /// AP and APH, in percent.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct ApAph {
     /// Average precision.
     pub ap: f64,
@@ -69,7 +69,7 @@ pub struct ApAph {
 pub const RANGE_SHARDS: [(f32, f32); 3] = [(0.0, 30.0), (30.0, 50.0), (50.0, f32::INFINITY)];
 
 /// The results of one class.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WaymoClassAp {
     /// The class.
     pub class: ObjectClass,

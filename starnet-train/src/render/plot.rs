@@ -109,10 +109,21 @@ impl LinePlot {
             c.text(LEFT as i64 - 8 - 12 * s.len() as i64, y as i64 - 7, &s, INK, 2);
         }
         let xt: Vec<f64> = if self.log_x {
+            // Ticks at the data's x values when they are few and spread (center counts), else
+            // at 1, 2, 5 × 10^k (GFLOP, milliseconds).
             let mut v: Vec<f64> = all.iter().map(|p| p.0).collect();
             v.sort_by(f64::total_cmp);
             v.dedup();
-            v
+            let spread = v.windows(2).all(|w| w[1] >= 1.5 * w[0]);
+            if v.len() <= 8 && spread {
+                v
+            } else {
+                let (lo, hi) = (10f64.powf(x0), 10f64.powf(x1));
+                (x0.floor() as i32..=x1.ceil() as i32)
+                    .flat_map(|k| [1.0, 2.0, 5.0].map(|m| m * 10f64.powi(k)))
+                    .filter(|t| (lo * 0.999..=hi * 1.001).contains(t))
+                    .collect()
+            }
         } else {
             ticks(x0, x1)
         };

@@ -9,7 +9,7 @@ use crate::eval::{
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use starnet_data::kitti::{
     Calib, Frame, ImageSize, KittiDataset, KittiObject, LabelSource, ObjectClass, observation_angle, write_results,
 };
@@ -23,7 +23,7 @@ use std::path::Path;
 use std::time::Instant;
 
 /// How much compute a frame gets.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Budget {
     /// Centers sampled per frame.
     pub num_centers: usize,
@@ -53,7 +53,7 @@ impl Budget {
 pub const RANGE_BINS_MAX_M: f32 = 80.0;
 
 /// What an evaluation found.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct EvalReport {
     /// Frames evaluated.
     pub frames: usize,

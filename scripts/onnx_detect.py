@@ -1,0 +1,226 @@
+#!/usr/bin/env python3
+"""Run an exported StarNet (`starnet export`) on KITTI velodyne sweeps with onnxruntime.
+
+The dense network is `model.onnx`; everything around it (center sampling, gathering, anchor
+decoding, NMS, the camera projection for the KITTI result format) is done here from the
+contract in `model.json`.
+
+    pip install numpy onnxruntime
+    python3 scripts/onnx_detect.py --export export/ --input ROOT/training/velodyne/000001.bin \
+        --calib ROOT/training/calib/000001.txt --out detections/
+
+Writes `{id}.txt` in KITTI's result format (boxes whose projection reaches image 2).
+Centers are sampled with farthest point sampling in bird's-eye view from a seeded random start,
+as the Rust pipeline does; the exact centers (and so the boxes) differ from `starnet detect`'s,
+which uses its own random streams.
+"""
+
+import argparse
+import json
+import math
+import os
+
+import numpy as np
+import onnxruntime as ort
+
+IMAGE_W, IMAGE_H = 1242, 375
+
+
+def read_calib(path):
+    rows = {}
+    for line in open(path):
+        if ":" in line:
+            key, vals = line.split(":", 1)
+            rows[key.strip()] = np.array([float(v) for v in vals.split()])
+    p2 = rows["P2"].reshape(3, 4)
+    r0 = np.eye(4)
+    r0[:3, :3] = rows["R0_rect"].reshape(3, 3)
+    tr = np.eye(4)
+    tr[:3, :4] = rows["Tr_velo_to_cam"].reshape(3, 4)
+    return p2, r0 @ tr  # image projection, LiDAR -> rectified camera
+
+
+def bound(v, default):
+    return default if v is None else v  # JSON has no infinity: unbounded ranges are null
+
+
+def center_pool(points, pool, calib):
+    x, y, z = points[:, 0], points[:, 1], points[:, 2]
+    keep = np.ones(len(points), bool)
+    for axis, key in ((x, "x_range"), (y, "y_range"), (z, "z_range")):
+        lo, hi = pool[key]
+        keep &= (axis >= bound(lo, -np.inf)) & (axis <= bound(hi, np.inf))
+    if pool["camera_frustum"] and calib is not None:
+        p2, velo_to_rect = calib
+        rect = np.c_[points[:, :3], np.ones(len(points))] @ velo_to_rect.T
+        img = np.c_[rect[:, :3], np.ones(len(points))] @ p2.T
+        u, v = img[:, 0] / img[:, 2], img[:, 1] / img[:, 2]
+        keep &= (rect[:, 2] >= 0) & (u >= 0) & (u < IMAGE_W) & (v >= 0) & (v < IMAGE_H)
+    return np.flatnonzero(keep)
+
+
+def fps_bev(xy, n, rng):
+    chosen = [int(rng.integers(len(xy)))]
+    dist = np.full(len(xy), np.inf)
+    for _ in range(1, min(n, len(xy))):
+        dist = np.minimum(dist, ((xy - xy[chosen[-1]]) ** 2).sum(1))
+        chosen.append(int(dist.argmax()))
+    return np.array(chosen)
+
+
+def gather(points, centers, num_points, radius, rng):
+    feats = np.zeros((len(centers), num_points, 4), np.float32)
+    mask = np.zeros((len(centers), num_points), np.float32)
+    for c, ctr in enumerate(centers):
+        near = np.flatnonzero(((points[:, :3] - ctr) ** 2).sum(1) <= radius * radius)
+        if len(near) > num_points:
+            near = rng.choice(near, num_points, replace=False)
+        feats[c, : len(near), :3] = points[near, :3] - ctr
+        feats[c, : len(near), 3] = points[near, 3]
+        mask[c, : len(near)] = 1.0
+    return feats, mask
+
+
+def anchors_around(center, grid):
+    g, ext = grid["grid"], grid["extent"]
+    steps = [-ext + i * 2 * ext / (g - 1) for i in range(g)] if g > 1 else [0.0]
+    out = []
+    for ox in steps:  # offset-major (x outer, y inner), then rotation, then prior
+        for oy in steps:
+            for rot in grid["rotations"]:
+                for p in grid["priors"]:
+                    out.append([center[0] + ox, center[1] + oy, center[2] + p["z"], *p["size"], rot])
+    return np.array(out, np.float64)
+
+
+def decode(r, a):
+    d = np.hypot(a[:, 3], a[:, 4])
+    heading = a[:, 6] + r[:, 6]
+    heading = -math.pi + np.mod(heading + math.pi, 2 * math.pi)
+    return np.stack([a[:, 0] + r[:, 0] * d, a[:, 1] + r[:, 1] * d, a[:, 2] + r[:, 2] * a[:, 5],
+                     a[:, 3] * np.exp(r[:, 3]), a[:, 4] * np.exp(r[:, 4]), a[:, 5] * np.exp(r[:, 5]),
+                     heading], 1)
+
+
+def corners_bev(b):
+    c, s = math.cos(b[6]), math.sin(b[6])
+    return [(b[0] + c * u - s * v, b[1] + s * u + c * v)
+            for u, v in ((b[3] / 2, b[4] / 2), (-b[3] / 2, b[4] / 2), (-b[3] / 2, -b[4] / 2), (b[3] / 2, -b[4] / 2))]
+
+
+def clip(subject, clipper):  # Sutherland-Hodgman, both convex and counter-clockwise
+    out = subject
+    for i in range(len(clipper)):
+        a, b = clipper[i], clipper[(i + 1) % len(clipper)]
+        inside = lambda p: (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]) >= 0
+        src, out = out, []
+        for j in range(len(src)):
+            p, q = src[j], src[(j + 1) % len(src)]
+            if inside(q):
+                if not inside(p):
+                    out.append(intersect(p, q, a, b))
+                out.append(q)
+            elif inside(p):
+                out.append(intersect(p, q, a, b))
+        if not out:
+            return []
+    return out
+
+
+def intersect(p, q, a, b):
+    dx, dy = q[0] - p[0], q[1] - p[1]
+    ex, ey = b[0] - a[0], b[1] - a[1]
+    t = (ex * (p[1] - a[1]) - ey * (p[0] - a[0])) / (dy * ex - dx * ey)
+    return (p[0] + t * dx, p[1] + t * dy)
+
+
+def area(poly):
+    return 0.5 * abs(sum(poly[i][0] * poly[i - 1][1] - poly[i - 1][0] * poly[i][1] for i in range(len(poly))))
+
+
+def iou_3d(a, b):
+    inter = clip(corners_bev(a), corners_bev(b))
+    overlap = max(0.0, min(a[2] + a[5] / 2, b[2] + b[5] / 2) - max(a[2] - a[5] / 2, b[2] - b[5] / 2))
+    v = (area(inter) if len(inter) >= 3 else 0.0) * overlap
+    return v / (a[3] * a[4] * a[5] + b[3] * b[4] * b[5] - v)
+
+
+def nms(boxes, scores, iou_thr, score_thr, max_boxes):
+    keep = []
+    for i in np.argsort(-scores):
+        if scores[i] < score_thr or len(keep) == max_boxes:
+            break
+        if all(iou_3d(boxes[i], boxes[j]) <= iou_thr for j in keep):
+            keep.append(i)
+    return keep
+
+
+def kitti_line(name, b, score, calib):
+    p2, velo_to_rect = calib
+    x, y, z = (velo_to_rect @ np.array([b[0], b[1], b[2], 1.0]))[:3]
+    h, w, l = b[5], b[4], b[3]
+    ry = -math.pi + (( -b[6] - math.pi / 2) + math.pi) % (2 * math.pi)
+    y += h / 2  # KITTI's location is the bottom centre, camera y down
+    c, s = math.cos(ry), math.sin(ry)
+    pts = []
+    for u in (l / 2, -l / 2):
+        for v in (w / 2, -w / 2):
+            for dy in (0.0, -h):
+                px, pz = x + c * u + s * v, z - s * u + c * v
+                img = p2 @ np.array([px, y + dy, pz, 1.0])
+                if img[2] <= 0:
+                    return None
+                pts.append(img[:2] / img[2])
+    pts = np.array(pts)
+    left, top = pts.min(0)
+    right, bottom = pts.max(0)
+    if right < 0 or bottom < 0 or left > IMAGE_W - 1 or top > IMAGE_H - 1:
+        return None
+    left, right = np.clip([left, right], 0, IMAGE_W - 1)
+    top, bottom = np.clip([top, bottom], 0, IMAGE_H - 1)
+    alpha = -math.pi + ((ry - math.atan2(x, z)) + math.pi) % (2 * math.pi)
+    return (f"{name} -1 -1 {alpha:.2f} {left:.2f} {top:.2f} {right:.2f} {bottom:.2f} "
+            f"{h:.2f} {w:.2f} {l:.2f} {x:.2f} {y:.2f} {z:.2f} {ry:.2f} {score:.4f}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--export", required=True, help="folder written by `starnet export`")
+    ap.add_argument("--input", required=True, help="a velodyne .bin file")
+    ap.add_argument("--calib", required=True, help="its KITTI calib file")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+
+    spec = json.load(open(os.path.join(args.export, "model.json")))
+    session = ort.InferenceSession(os.path.join(args.export, "model.onnx"))
+    calib = read_calib(args.calib)
+    rng = np.random.default_rng(args.seed)
+    points = np.fromfile(args.input, np.float32).reshape(-1, 4)
+
+    pool = center_pool(points, spec["center_pool"], calib)
+    chosen = pool[fps_bev(points[pool, :2].astype(np.float64), spec["num_centers"], rng)]
+    centers = points[chosen, :3].astype(np.float32)
+    if spec["center_z"] == "zero":
+        centers[:, 2] = 0.0
+    feats, mask = gather(points, centers, spec["num_points"], spec["radius"], rng)
+    logits, residuals = session.run(None, {"points": feats, "mask": mask})
+
+    anchors = np.concatenate([anchors_around(c, spec["anchors"]) for c in centers])
+    boxes = decode(residuals.reshape(-1, 7).astype(np.float64), anchors)
+    scores = 1.0 / (1.0 + np.exp(-logits.reshape(len(anchors), -1)))
+    lines = []
+    for k, name in enumerate(spec["classes"]):
+        for i in nms(boxes, scores[:, k], spec["nms_iou"][k], spec["nms_score"][k], spec["max_boxes"]):
+            line = kitti_line(name, boxes[i], scores[i, k], calib)
+            if line:
+                lines.append(line)
+    os.makedirs(args.out, exist_ok=True)
+    stem = os.path.splitext(os.path.basename(args.input))[0]
+    with open(os.path.join(args.out, stem + ".txt"), "w") as f:
+        f.write("".join(line + "\n" for line in lines))
+    print(f"{stem}: {len(points)} points, {len(centers)} centers, {len(lines)} boxes")
+
+
+if __name__ == "__main__":
+    main()

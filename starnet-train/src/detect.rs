@@ -1,0 +1,144 @@
+//! `starnet detect`: the whole pipeline on raw sweeps (velodyne `.bin` files): center sampling,
+//! gathering, the network, decoding and NMS, at the config's evaluation budget. For each sweep
+//! it writes `{id}.json` (LiDAR-frame boxes) and, when a calibration is known, `{id}.txt` in
+//! KITTI's result format (boxes that project into image 2, with their 2D boxes).
+//!
+//! The calibration of `ROOT/…/velodyne/{id}.bin` is `--calib FILE` if given, else
+//! `ROOT/…/calib/{id}.txt` when it exists. Without one the centers are sampled all around the
+//! sensor (no camera frustum) and only the JSON is written.
+
+use crate::config::ExperimentConfig;
+use crate::train::to_kitti;
+use crate::{Result, TrainError};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use starnet_data::io::atomic_write;
+use starnet_data::kitti::{Calib, Frame, ImageSize, ObjectClass, read_points, write_results};
+use starnet_data::sampling::{GatherConfig, PipelineConfig, prepare_frame};
+use starnet_data::sim::sub_seed;
+use starnet_model::batch::{decode_frame, make_input};
+use starnet_model::nn::StarNet;
+use std::path::{Path, PathBuf};
+
+/// One detected box.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DetectedBox {
+    /// Class.
+    pub class: ObjectClass,
+    /// Score in [0, 1].
+    pub score: f32,
+    /// `[x, y, z, dx, dy, dz, heading]`, LiDAR frame.
+    #[serde(rename = "box")]
+    pub b: [f32; 7],
+}
+
+/// The detections of one sweep.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepDetections {
+    /// Sweep id (the file stem).
+    pub id: String,
+    /// Points in the sweep.
+    pub num_points: usize,
+    /// Whether a calibration was found (and KITTI result lines written).
+    pub calibrated: bool,
+    /// Boxes, best first.
+    pub detections: Vec<DetectedBox>,
+}
+
+/// The `.bin` files of `input`: the file itself, or a folder's `.bin` files by name.
+pub fn sweep_files(input: &Path) -> Result<Vec<PathBuf>> {
+    if input.is_file() {
+        return Ok(vec![input.to_path_buf()]);
+    }
+    let entries = std::fs::read_dir(input).map_err(|e| starnet_data::DataError::io(input, e))?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "bin"))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(TrainError::InvalidArgument {
+            name: "--input".into(),
+            message: format!("{} holds no .bin file", input.display()),
+        });
+    }
+    Ok(files)
+}
+
+/// The calibration of a sweep: `given`, or the KITTI layout's `../calib/{id}.txt`.
+fn calibration(bin: &Path, given: Option<&Path>) -> Result<Option<Calib>> {
+    let sibling = || {
+        let id = bin.file_stem()?;
+        let root = bin.parent()?.parent()?;
+        Some(root.join("calib").join(id).with_extension("txt")).filter(|p| p.is_file())
+    };
+    match given.map(Path::to_path_buf).or_else(sibling) {
+        Some(p) => Ok(Some(Calib::read(&p)?)),
+        None => Ok(None),
+    }
+}
+
+/// Runs `model` (validation mode) on each sweep and writes the results into `out`.
+pub fn detect(
+    model: &StarNet,
+    cfg: &ExperimentConfig,
+    inputs: &[PathBuf],
+    calib: Option<&Path>,
+    out: &Path,
+) -> Result<Vec<SweepDetections>> {
+    std::fs::create_dir_all(out).map_err(|e| starnet_data::DataError::io(out, e))?;
+    let device = starnet_model::backend::default_device();
+    let nms = cfg.nms_config();
+    let mut all = Vec::with_capacity(inputs.len());
+    for (i, bin) in inputs.iter().enumerate() {
+        let id = bin
+            .file_stem()
+            .map_or_else(|| format!("{i:06}"), |s| s.to_string_lossy().into_owned());
+        let found = calibration(bin, calib)?;
+        let mut pipeline = PipelineConfig {
+            num_centers: cfg.eval.num_centers,
+            gather: GatherConfig {
+                num_points: cfg.eval.num_points,
+                radius: cfg.pipeline.gather.radius,
+            },
+            ..cfg.pipeline.clone()
+        };
+        pipeline.pool.camera_frustum &= found.is_some();
+        let frame = Frame {
+            id: id.clone(),
+            points: read_points(bin)?,
+            objects: Vec::new(),
+            calib: found.clone().unwrap_or_else(Calib::kitti_000000),
+            image_size: ImageSize::KITTI,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(sub_seed(cfg.seed, 21, i as u64));
+        let prepared = prepare_frame(&frame, &pipeline, None, &[], &mut rng);
+        let output = model.forward(make_input(&[&prepared], &device));
+        let detections = decode_frame(&output, 0, &prepared, &cfg.model.anchors, &nms);
+        if found.is_some() {
+            let lines: Vec<_> = detections
+                .iter()
+                .filter_map(|d| to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size))
+                .collect();
+            write_results(&out.join(format!("{id}.txt")), &lines)?;
+        }
+        let sweep = SweepDetections {
+            id: id.clone(),
+            num_points: frame.points.len(),
+            calibrated: found.is_some(),
+            detections: detections
+                .iter()
+                .map(|d| DetectedBox {
+                    class: cfg.data.classes[d.class],
+                    score: d.score,
+                    b: d.b.to_array(),
+                })
+                .collect(),
+        };
+        let json = serde_json::to_vec_pretty(&sweep).expect("detections serialise");
+        atomic_write(&out.join(format!("{id}.json")), &json)?;
+        all.push(sweep);
+    }
+    Ok(all)
+}
