@@ -1,8 +1,8 @@
 //! `starnet train`: the training loop. Batches are prepared in loader threads (augmentation,
 //! sampling, gathering, target assignment) while the model computes; Adam with the authors'
-//! schedule, global-norm clipping and L2; a JSON-lines log of every scalar; checkpoints at every
-//! epoch (and on Ctrl-C) that `--resume` continues bit for bit; evaluation on the validation
-//! split, keeping the best checkpoint.
+//! schedule, global-norm clipping and L2; a weight EMA for evaluation; a JSON-lines log of every
+//! scalar; checkpoints at every epoch (and on Ctrl-C) that `--resume` continues bit for bit;
+//! evaluation on the validation split (with the EMA weights), keeping the best checkpoint.
 //!
 //! Determinism: the data order is a function of (seed, epoch) and item `k`'s randomness of
 //! (seed, k), so a resumed run sees exactly the items the uninterrupted one would have.
