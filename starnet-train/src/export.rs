@@ -15,7 +15,8 @@
 use crate::config::{ExperimentConfig, to_toml};
 use crate::{Result, TrainError};
 use burn::prelude::*;
-use burn::tensor::Distribution;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::ObjectClass;
@@ -127,20 +128,21 @@ impl ModelSpec {
     }
 }
 
-/// A seeded input of `c` centers × `p` points (the last quarter of each neighbourhood padded)
-/// and the model's outputs for it.
+/// A seeded input of `c` centers × `p` points (features uniform in [−1, 1), the last quarter of
+/// each neighbourhood padded with zeros, as the gatherer writes them) and the model's outputs for
+/// it. The input comes from its own seeded RNG, so it does not depend on the device's.
 pub fn golden(model: &StarNet, c: usize, p: usize, seed: u64) -> Vec<NamedTensor> {
     let device = starnet_model::backend::default_device();
-    device.seed(seed);
-    let points = Tensor::<4>::random([1, c, p, NUM_FEATURES], Distribution::Normal(0.0, 1.0), &device);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let real = p - p / 4;
     let m: Vec<f32> = (0..c * p).map(|i| if i % p < real { 1.0 } else { 0.0 }).collect();
-    let mask = Tensor::<1>::from_floats(m.as_slice(), &device).reshape([1, c, p]);
-    // Padded slots hold zeros, as the gatherer writes them.
-    let points = points * mask.clone().reshape([1, c, p, 1]);
+    let values: Vec<f32> = m
+        .iter()
+        .flat_map(|&on| [0; NUM_FEATURES].map(|_| if on > 0.0 { rng.random_range(-1.0f32..1.0) } else { 0.0 }))
+        .collect();
     let out = model.forward(ModelInput {
-        points: points.clone(),
-        mask: mask.clone(),
+        points: Tensor::<1>::from_floats(values.as_slice(), &device).reshape([1, c, p, NUM_FEATURES]),
+        mask: Tensor::<1>::from_floats(m.as_slice(), &device).reshape([1, c, p]),
         center_valid: Tensor::ones([1, c], &device),
     });
     let named = |name: &str, t: Vec<f32>, shape: Vec<usize>| NamedTensor {
@@ -151,7 +153,7 @@ pub fn golden(model: &StarNet, c: usize, p: usize, seed: u64) -> Vec<NamedTensor
     let data = |t: Tensor<4>| t.into_data().iter::<f32>().collect::<Vec<f32>>();
     let [_, _, a, k] = out.cls_logits.dims();
     vec![
-        named("points", data(points), vec![c, p, NUM_FEATURES]),
+        named("points", values, vec![c, p, NUM_FEATURES]),
         named("mask", m, vec![c, p]),
         named("cls_logits", data(out.cls_logits), vec![c, a, k]),
         named("box_residuals", data(out.box_residuals), vec![c, a, 7]),
