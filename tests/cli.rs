@@ -1,20 +1,11 @@
 //! End-to-end tests of the `starnet` binary on the real KITTI sample
 //! (`shared/kitti-sample`, or `STARNET_KITTI_SAMPLE`).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn sample_root() -> PathBuf {
-    let root = std::env::var_os("STARNET_KITTI_SAMPLE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/kitti-sample"));
-    assert!(
-        root.join("training/velodyne/000000.bin").is_file(),
-        "KITTI sample not found at {}",
-        root.display()
-    );
-    root
-}
+use common::sample_root;
+use std::path::Path;
+use std::process::{Command, Output};
 
 fn starnet(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_starnet"))

@@ -1,5 +1,7 @@
 //! Training and evaluation end to end, on a few simulated frames with a tiny model (seconds).
 
+mod common;
+
 use burn::module::Module;
 use burn::prelude::*;
 use starnet_train::config::load_config;
@@ -227,9 +229,7 @@ fn train_then_eval_through_the_cli() {
         dir.path(),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let sample = std::env::var_os("STARNET_KITTI_SAMPLE")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/kitti-sample"));
+    let sample = common::sample_root();
     let detected = dir.path().join("detected");
     let o = starnet(
         &[

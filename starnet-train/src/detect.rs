@@ -8,14 +8,14 @@
 //! sensor (no camera frustum) and only the JSON is written.
 
 use crate::config::ExperimentConfig;
-use crate::train::to_kitti;
+use crate::train::{Budget, to_kitti};
 use crate::{Result, TrainError};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::{Calib, Frame, ImageSize, ObjectClass, read_points, write_results};
-use starnet_data::sampling::{GatherConfig, PipelineConfig, prepare_frame};
+use starnet_data::sampling::prepare_frame;
 use starnet_data::sim::sub_seed;
 use starnet_model::batch::{decode_frame, make_input};
 use starnet_model::nn::StarNet;
@@ -96,14 +96,7 @@ pub fn detect(
             .file_stem()
             .map_or_else(|| format!("{i:06}"), |s| s.to_string_lossy().into_owned());
         let found = calibration(bin, calib)?;
-        let mut pipeline = PipelineConfig {
-            num_centers: cfg.eval.num_centers,
-            gather: GatherConfig {
-                num_points: cfg.eval.num_points,
-                radius: cfg.pipeline.gather.radius,
-            },
-            ..cfg.pipeline.clone()
-        };
+        let mut pipeline = Budget::of(cfg).pipeline(&cfg.pipeline);
         pipeline.pool.camera_frustum &= found.is_some();
         let frame = Frame {
             id: id.clone(),

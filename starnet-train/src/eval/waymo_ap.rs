@@ -114,26 +114,30 @@ struct Counts {
     fn_: f64,
 }
 
-/// One frame of one class, prepared for the cutoffs: predictions sorted by score, the IoU matrix
-/// `[objects × predictions]` and each object's ignore flag.
+/// One frame of one class in one range shard, prepared for the cutoffs: predictions sorted by
+/// score, the IoU matrix `[objects × predictions]` and each object's level (`None`: never
+/// counted — the neighbour class or no points). The matching does not depend on the level, so
+/// one case serves both.
 struct FrameCase {
     scores: Vec<f32>,
     weights: Vec<f64>,
     heading_acc: Vec<f64>,
-    ignored: Vec<bool>,
-    n_gt: usize,
+    levels: Vec<Option<usize>>,
 }
 
-fn frame_case(frame: &WaymoFrame, class: ObjectClass, level: usize, shard: (f32, f32), iou: f32) -> FrameCase {
+impl FrameCase {
+    /// Whether object `i` counts at `level` (1 or 2).
+    fn counted(&self, i: usize, level: usize) -> bool {
+        self.levels[i].is_some_and(|l| l <= level)
+    }
+}
+
+fn frame_case(frame: &WaymoFrame, class: ObjectClass, shard: (f32, f32), iou: f32) -> FrameCase {
     let in_shard = |b: &Box3d| (shard.0..shard.1).contains(&bev_range(b));
-    let gts: Vec<(&WaymoObject, bool)> = frame
+    let gts: Vec<&WaymoObject> = frame
         .objects
         .iter()
         .filter(|o| (o.class == class || Some(o.class) == neighbour(class)) && in_shard(&o.b))
-        .map(|o| {
-            let counted = o.class == class && waymo_level(o.num_points).is_some_and(|l| l <= level);
-            (o, !counted)
-        })
         .collect();
     let mut dets: Vec<&WaymoDetection> = frame
         .detections
@@ -144,7 +148,7 @@ fn frame_case(frame: &WaymoFrame, class: ObjectClass, level: usize, shard: (f32,
     let n = dets.len();
     let mut weights = vec![0.0; gts.len() * n];
     let mut heading_acc = vec![0.0; gts.len() * n];
-    for (i, (g, _)) in gts.iter().enumerate() {
+    for (i, g) in gts.iter().enumerate() {
         for (j, d) in dets.iter().enumerate() {
             let v = iou_3d(&g.b, &d.b);
             if v >= iou {
@@ -158,30 +162,34 @@ fn frame_case(frame: &WaymoFrame, class: ObjectClass, level: usize, shard: (f32,
         scores: dets.iter().map(|d| d.score).collect(),
         weights,
         heading_acc,
-        ignored: gts.iter().map(|g| g.1).collect(),
-        n_gt: gts.len(),
+        levels: gts
+            .iter()
+            .map(|o| (o.class == class).then(|| waymo_level(o.num_points)).flatten())
+            .collect(),
     }
 }
 
-/// Matches the `k` highest-scoring predictions of a frame.
-fn counts_at(case: &FrameCase, k: usize) -> Counts {
-    let n = case.scores.len();
-    let sub: Vec<f64> = (0..case.n_gt)
+/// Matches the `k` highest-scoring predictions of a frame: the counts at `[LEVEL_1, LEVEL_2]`.
+fn counts_at(case: &FrameCase, k: usize) -> [Counts; 2] {
+    let (n, n_gt) = (case.scores.len(), case.levels.len());
+    let sub: Vec<f64> = (0..n_gt)
         .flat_map(|i| case.weights[i * n..i * n + k].iter().copied())
         .collect();
-    let pairs = max_weight_matching(&sub, case.n_gt, k);
-    let mut c = Counts::default();
-    let mut gt_matched = vec![false; case.n_gt];
-    for &(i, j) in &pairs {
+    let pairs = max_weight_matching(&sub, n_gt, k);
+    let mut gt_matched = vec![false; n_gt];
+    for &(i, _) in &pairs {
         gt_matched[i] = true;
-        if !case.ignored[i] {
+    }
+    [1, 2].map(|level| {
+        let mut c = Counts::default();
+        for &(i, j) in pairs.iter().filter(|p| case.counted(p.0, level)) {
             c.tp += 1.0;
             c.tp_heading += case.heading_acc[i * n + j];
         }
-    }
-    c.fp = (k - pairs.len()) as f64;
-    c.fn_ = (0..case.n_gt).filter(|&i| !case.ignored[i] && !gt_matched[i]).count() as f64;
-    c
+        c.fp = (k - pairs.len()) as f64;
+        c.fn_ = (0..n_gt).filter(|&i| case.counted(i, level) && !gt_matched[i]).count() as f64;
+        c
+    })
 }
 
 /// Area under the precision envelope of `(recall, precision)` points.
@@ -206,40 +214,47 @@ fn envelope_ap(mut pr: Vec<(f64, f64)>) -> f64 {
     ap
 }
 
-/// AP and APH of one class, level and range shard.
-fn ap_aph(frames: &[WaymoFrame], class: ObjectClass, level: usize, shard: (f32, f32)) -> (ApAph, usize) {
+/// AP and APH of one class and range shard at `[LEVEL_1, LEVEL_2]`, with the objects counted.
+fn ap_aph(frames: &[WaymoFrame], class: ObjectClass, shard: (f32, f32)) -> ([ApAph; 2], [usize; 2]) {
     let iou = official_min_overlap(class);
-    let cases: Vec<FrameCase> = frames.iter().map(|f| frame_case(f, class, level, shard, iou)).collect();
-    let num_objects = cases.iter().map(|c| c.ignored.iter().filter(|i| !**i).count()).sum();
+    let cases: Vec<FrameCase> = frames.iter().map(|f| frame_case(f, class, shard, iou)).collect();
     // The matching depends on the cutoff only through how many predictions pass it: compute
     // each prefix once.
-    let per_frame: Vec<Vec<Counts>> = cases
+    let per_frame: Vec<Vec<[Counts; 2]>> = cases
         .iter()
         .map(|c| (0..=c.scores.len()).map(|k| counts_at(c, k)).collect())
         .collect();
-    let (mut pr, mut prh) = (Vec::new(), Vec::new());
-    for t in 0..=100 {
-        let cutoff = t as f32 / 100.0;
-        let mut total = Counts::default();
-        for (case, counts) in cases.iter().zip(&per_frame) {
-            let k = case.scores.iter().take_while(|&&s| s >= cutoff).count();
-            let c = counts[k];
-            total.tp += c.tp;
-            total.tp_heading += c.tp_heading;
-            total.fp += c.fp;
-            total.fn_ += c.fn_;
+    let level = |l: usize| {
+        let num_objects = cases
+            .iter()
+            .map(|c| (0..c.levels.len()).filter(|&i| c.counted(i, l + 1)).count())
+            .sum();
+        let (mut pr, mut prh) = (Vec::new(), Vec::new());
+        for t in 0..=100 {
+            let cutoff = t as f32 / 100.0;
+            let mut total = Counts::default();
+            for (case, counts) in cases.iter().zip(&per_frame) {
+                let k = case.scores.iter().take_while(|&&s| s >= cutoff).count();
+                let c = counts[k][l];
+                total.tp += c.tp;
+                total.tp_heading += c.tp_heading;
+                total.fp += c.fp;
+                total.fn_ += c.fn_;
+            }
+            if total.tp + total.fp > 0.0 && total.tp + total.fn_ > 0.0 {
+                let (pos, gt) = (total.tp + total.fp, total.tp + total.fn_);
+                pr.push((total.tp / gt, total.tp / pos));
+                prh.push((total.tp_heading / gt, total.tp_heading / pos));
+            }
         }
-        if total.tp + total.fp > 0.0 && total.tp + total.fn_ > 0.0 {
-            let (pos, gt) = (total.tp + total.fp, total.tp + total.fn_);
-            pr.push((total.tp / gt, total.tp / pos));
-            prh.push((total.tp_heading / gt, total.tp_heading / pos));
-        }
-    }
-    let result = ApAph {
-        ap: envelope_ap(pr) * 100.0,
-        aph: envelope_ap(prh) * 100.0,
+        let result = ApAph {
+            ap: envelope_ap(pr) * 100.0,
+            aph: envelope_ap(prh) * 100.0,
+        };
+        (result, num_objects)
     };
-    (result, num_objects)
+    let ((l1, n1), (l2, n2)) = (level(0), level(1));
+    ([l1, l2], [n1, n2])
 }
 
 /// Waymo-style AP and APH for each of `classes`.
@@ -247,16 +262,14 @@ pub fn waymo_ap(frames: &[WaymoFrame], classes: &[ObjectClass]) -> Vec<WaymoClas
     classes
         .iter()
         .map(|&class| {
-            let all = (0.0, f32::INFINITY);
-            let (l1, n1) = ap_aph(frames, class, 1, all);
-            let (l2, n2) = ap_aph(frames, class, 2, all);
-            let shard = |level| RANGE_SHARDS.map(|s| ap_aph(frames, class, level, s).0);
+            let (levels, num_objects) = ap_aph(frames, class, (0.0, f32::INFINITY));
+            let shards = RANGE_SHARDS.map(|s| ap_aph(frames, class, s).0);
             WaymoClassAp {
                 class,
                 iou: official_min_overlap(class),
-                levels: [l1, l2],
-                ranges: [shard(1), shard(2)],
-                num_objects: [n1, n2],
+                levels,
+                ranges: [shards.map(|s| s[0]), shards.map(|s| s[1])],
+                num_objects,
             }
         })
         .collect()

@@ -47,6 +47,19 @@ impl Budget {
     pub fn model_centers(&self) -> usize {
         self.target.count(self.num_centers)
     }
+
+    /// `base` (the pool, sampler, center z and radius) at this budget.
+    pub fn pipeline(&self, base: &PipelineConfig) -> PipelineConfig {
+        PipelineConfig {
+            num_centers: self.num_centers,
+            target: self.target,
+            gather: GatherConfig {
+                num_points: self.num_points,
+                radius: base.gather.radius,
+            },
+            ..base.clone()
+        }
+    }
 }
 
 /// Distance bins of [`EvalReport::by_range`] reach this far, metres.
@@ -189,15 +202,7 @@ pub fn evaluate(
     results: Option<&Path>,
 ) -> Result<EvalReport> {
     let device = starnet_model::backend::default_device();
-    let pipeline = PipelineConfig {
-        num_centers: budget.num_centers,
-        target: budget.target,
-        gather: GatherConfig {
-            num_points: budget.num_points,
-            radius: cfg.pipeline.gather.radius,
-        },
-        ..cfg.pipeline.clone()
-    };
+    let pipeline = budget.pipeline(&cfg.pipeline);
     let nms = cfg.nms_config();
     let anchors = &cfg.model.anchors;
     // KITTI's metrics need the camera-view labels; 360° labels get the Waymo-style ones only.
