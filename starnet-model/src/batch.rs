@@ -127,6 +127,18 @@ pub fn decode_frame(
     grid: &AnchorGrid,
     cfg: &NmsConfig,
 ) -> Vec<Detection> {
+    nms(&decode_detections(out, i, frame, grid, cfg), cfg)
+}
+
+/// [`decode_frame`] before NMS: every anchor of a valid center whose class score reaches the
+/// class's score threshold, in anchor order (for NMS across frames or slices).
+pub fn decode_detections(
+    out: &ModelOutput,
+    i: usize,
+    frame: &PreparedFrame,
+    grid: &AnchorGrid,
+    cfg: &NmsConfig,
+) -> Vec<Detection> {
     let [_, c, a, k] = out.cls_logits.dims();
     let logits: Vec<f32> = out
         .cls_logits
@@ -160,5 +172,5 @@ pub fn decode_frame(
             }
         }
     }
-    nms(&dets, cfg)
+    dets
 }

@@ -1,6 +1,6 @@
 //! The exact multiply-add count of one forward pass at (C, P), the compute axis of every
 //! budget report. Counted: every matrix product (fc0, both layers of each block, the projector,
-//! both heads). Not counted: BatchNorm, ReLU, max, mean and concatenation, which are linear in
+//! both heads, and for the streaming variant the LSTM step and its projection, once per call). Not counted: BatchNorm, ReLU, max, mean and concatenation, which are linear in
 //! the activations and small beside the products.
 
 use crate::nn::StarNetConfig;
@@ -19,7 +19,12 @@ pub fn forward_macs(cfg: &StarNetConfig, c: usize, p: usize) -> u64 {
     let per = cfg.anchors_per_offset() as u64;
     let projector = f.cell_dim() as u64 * offsets * cfg.d_offset as u64;
     let heads = offsets * cfg.d_offset as u64 * per * (cfg.num_classes as u64 + 7);
-    c * p * per_point + c * (projector + heads)
+    // One LSTM step per call: four gates over [input, hidden], then the projection back.
+    let lstm = cfg.lstm_hidden.map_or(0, |h| {
+        let (d, h) = (f.cell_dim() as u64, h as u64);
+        4 * (d + h) * h + h * d
+    });
+    c * p * per_point + c * (projector + heads) + lstm
 }
 
 /// GFLOP of one forward pass (2 FLOP per multiply-add).

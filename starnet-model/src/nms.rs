@@ -42,6 +42,12 @@ pub struct NmsConfig {
 /// a kept box of the same class overlaps them above the class's IoU threshold. Output sorted by
 /// descending score, at most `max_boxes`.
 pub fn nms(dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
+    nms_after(&[], dets, cfg)
+}
+
+/// [`nms`] continuing from boxes kept earlier: `earlier` suppress like kept boxes but are not
+/// returned (nor counted against `max_boxes`).
+pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
     let mut order: Vec<usize> = (0..dets.len())
         .filter(|&i| {
             cfg.per_class
@@ -57,7 +63,11 @@ pub fn nms(dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
         }
         let d = dets[i];
         let thr = cfg.per_class[d.class].iou;
-        if kept.iter().all(|k| k.class != d.class || iou_3d(&k.b, &d.b) <= thr) {
+        if earlier
+            .iter()
+            .chain(&kept)
+            .all(|k| k.class != d.class || iou_3d(&k.b, &d.b) <= thr)
+        {
             kept.push(d);
         }
     }
@@ -86,18 +96,12 @@ impl StatefulNms {
         self.history.clear();
     }
 
-    /// NMS within `dets`, then against the remembered boxes of the same class.
+    /// Greedy NMS of `dets` as if the remembered boxes had been kept first: a box is dropped
+    /// when a remembered or newly kept box of its class overlaps it (a box dropped by memory
+    /// suppresses nothing).
     pub fn step(&mut self, dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
-        let kept: Vec<Detection> = nms(dets, cfg)
-            .into_iter()
-            .filter(|d| {
-                let thr = cfg.per_class[d.class].iou;
-                self.history
-                    .iter()
-                    .flatten()
-                    .all(|h| h.class != d.class || iou_3d(&h.b, &d.b) <= thr)
-            })
-            .collect();
+        let remembered: Vec<Detection> = self.history.iter().flatten().copied().collect();
+        let kept = nms_after(&remembered, dets, cfg);
         if self.k > 0 {
             self.history.push_back(kept.clone());
             while self.history.len() > self.k {
@@ -159,5 +163,79 @@ mod tests {
         assert_eq!(s.step(&[det(0.2, 0, 0.95)], &c).len(), 1);
         // Other classes are not suppressed.
         assert_eq!(s.step(&[det(0.2, 1, 0.95)], &c).len(), 1);
+    }
+
+    /// Greedy NMS taking boxes slice by slice (each slice best score first): the oracle of
+    /// stateful NMS with memory of every earlier slice.
+    fn nms_in_arrival_order(slices: &[Vec<Detection>], cfg: &NmsConfig) -> Vec<Detection> {
+        let mut kept: Vec<Detection> = Vec::new();
+        for slice in slices {
+            let mut order: Vec<&Detection> = slice
+                .iter()
+                .filter(|d| d.score >= cfg.per_class[d.class].score)
+                .collect();
+            order.sort_by(|a, b| b.score.total_cmp(&a.score));
+            for d in order {
+                if kept
+                    .iter()
+                    .all(|k| k.class != d.class || iou_3d(&k.b, &d.b) <= cfg.per_class[d.class].iou)
+                {
+                    kept.push(*d);
+                }
+            }
+        }
+        kept
+    }
+
+    fn stateful_all(slices: &[Vec<Detection>], k: usize, cfg: &NmsConfig) -> Vec<Detection> {
+        let mut s = StatefulNms::new(k);
+        slices.iter().flat_map(|d| s.step(d, cfg)).collect()
+    }
+
+    fn sorted(mut v: Vec<Detection>) -> Vec<Detection> {
+        v.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.b.x.total_cmp(&b.b.x)));
+        v
+    }
+
+    proptest::proptest! {
+        /// Stateful NMS remembering the previous n − 1 slices is global NMS over the sweep in
+        /// arrival order; when boxes arrive best first (no later box outscores an earlier one),
+        /// it is exactly the global, score-ordered NMS.
+        #[test]
+        fn stateful_nms_with_k_n_minus_1_is_global_nms(
+            raw in proptest::collection::vec((0.0f32..30.0, 0.0f32..3.0, 0usize..2, 0.2f32..1.0), 1..40),
+            n in 1usize..6,
+        ) {
+            let c = cfg(1000);
+            // Boxes spread over n slices by position, so neighbours often straddle a border.
+            let slice_of = |x: f32| ((x / 30.0 * n as f32) as usize).min(n - 1);
+            let mut slices = vec![Vec::new(); n];
+            for &(x, y, class, score) in &raw {
+                let mut d = det(x, class, score);
+                d.b.y = y;
+                slices[slice_of(x)].push(d);
+            }
+            let all: Vec<Detection> = slices.iter().flatten().copied().collect();
+            proptest::prop_assert_eq!(
+                sorted(stateful_all(&slices, n - 1, &c)),
+                sorted(nms_in_arrival_order(&slices, &c))
+            );
+            // Rescore so every slice outscores the later ones: now it is the global NMS itself.
+            let ranked: Vec<Vec<Detection>> = slices
+                .iter()
+                .enumerate()
+                .map(|(s, v)| {
+                    v.iter()
+                        .map(|d| Detection { score: 1.0 - (s as f32 + 1.0 - d.score * 0.5) / n as f32 * 0.7, ..*d })
+                        .collect()
+                })
+                .collect();
+            let all_ranked: Vec<Detection> = ranked.iter().flatten().copied().collect();
+            proptest::prop_assert_eq!(sorted(stateful_all(&ranked, n - 1, &c)), sorted(nms(&all_ranked, &c)));
+            // With one slice, all three are the same NMS.
+            if n == 1 {
+                proptest::prop_assert_eq!(sorted(stateful_all(&slices, 1, &c)), sorted(nms(&all, &c)));
+            }
+        }
     }
 }

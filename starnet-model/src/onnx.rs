@@ -239,7 +239,9 @@ impl Weights {
     }
 }
 
-/// The ONNX model (serialized `ModelProto`) of `model`, whose config is `cfg`.
+/// The ONNX model (serialized `ModelProto`) of `model`, whose config is `cfg`: the per-center
+/// network (featurizer, projector, heads). The streaming LSTM is not part of the graph, so
+/// callers refuse models that have one ([`StarNet::has_lstm`]).
 pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     let w = Weights {
         by_name: named_tensors(model).into_iter().map(|t| (t.name.clone(), t)).collect(),

@@ -11,7 +11,7 @@ use crate::{Result, TrainError};
 use serde::{Deserialize, Serialize};
 use starnet_data::augment::AugmentConfig;
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
-use starnet_data::sampling::{AnchorGrid, PipelineConfig};
+use starnet_data::sampling::{AnchorGrid, PipelineConfig, SliceConfig};
 use starnet_model::assign::AssignConfig;
 use starnet_model::loss::{HeadingLoss, LossConfig};
 use starnet_model::nms::{ClassNms, NmsConfig};
@@ -52,6 +52,39 @@ pub struct ModelSection {
     pub d_offset: usize,
     /// Anchors around each center.
     pub anchors: AnchorGrid,
+    /// Hidden width of the streaming LSTM over the slices of a sweep (the streaming paper:
+    /// 128); 0: no LSTM.
+    pub lstm_hidden: usize,
+}
+
+/// Streaming (the streaming-detection paper): sweeps cut into azimuth slices, detected slice by
+/// slice as they arrive.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StreamSection {
+    /// Slice counts n to train on: each step draws one (every sweep of the step cut alike) and
+    /// spreads `pipeline.num_centers` over its slices, so one model serves every n. Empty:
+    /// train on whole sweeps, as StarNet does.
+    pub train_slices: Vec<usize>,
+    /// Slice count of the evaluations during and after training of a streaming config.
+    pub eval_slices: usize,
+    /// Stateful NMS memory k: a slice's boxes are also suppressed by the boxes kept in the
+    /// previous k slices (the paper: 1).
+    pub nms_memory: usize,
+    /// Streaming evaluations count objects and detections within this bird's-eye-view range,
+    /// metres (the center pool's reach; `inf`: everything labelled).
+    pub eval_range: f32,
+    /// LiDAR rotation rate, Hz (the worst-case latency model: a slice takes 1 / (n · Hz) to scan).
+    pub scan_hz: f64,
+    /// Where sweeps start, which way they turn, what a slice may read.
+    pub slicing: SliceConfig,
+}
+
+impl StreamSection {
+    /// Whether training cuts sweeps into slices.
+    pub fn enabled(&self) -> bool {
+        !self.train_slices.is_empty()
+    }
 }
 
 /// Loss weights (see `starnet_model::loss`).
@@ -161,6 +194,8 @@ pub struct ExperimentConfig {
     pub train: TrainSection,
     /// Evaluation budget.
     pub eval: EvalSection,
+    /// Streaming.
+    pub stream: StreamSection,
 }
 
 impl Default for ExperimentConfig {
@@ -184,6 +219,7 @@ impl Default for ExperimentConfig {
                 blocks: vec![[256, 64]; 5],
                 d_offset: 128,
                 anchors: AnchorGrid::kitti_car(),
+                lstm_hidden: 0,
             },
             assign: AssignConfig::default(),
             loss: LossSection {
@@ -223,6 +259,14 @@ impl Default for ExperimentConfig {
                 num_points: 64,
                 batch_size: 2,
             },
+            stream: StreamSection {
+                train_slices: Vec::new(),
+                eval_slices: 8,
+                nms_memory: 1,
+                eval_range: f32::INFINITY,
+                scan_hz: 10.0,
+                slicing: SliceConfig::default(),
+            },
         }
     }
 }
@@ -237,6 +281,7 @@ impl ExperimentConfig {
             self.model.anchors.clone(),
             self.data.classes.len(),
         )
+        .with_lstm_hidden((self.model.lstm_hidden > 0).then_some(self.model.lstm_hidden))
     }
 
     /// A split of the config's dataset, read with the config's labels.
@@ -320,6 +365,27 @@ impl ExperimentConfig {
         }
         if self.model.blocks.is_empty() || self.model.anchors.is_empty() {
             return bad("model", "needs at least one block and one anchor".into());
+        }
+        if self.stream.train_slices.contains(&0) || self.stream.eval_slices == 0 {
+            return bad("stream.train_slices", "slice counts must be at least 1".into());
+        }
+        if !(self.stream.scan_hz.is_finite() && self.stream.scan_hz > 0.0) {
+            return bad(
+                "stream.scan_hz",
+                format!("{} is not a positive rate", self.stream.scan_hz),
+            );
+        }
+        if self.stream.enabled() && self.pipeline.pool.camera_frustum {
+            return bad(
+                "pipeline.pool.camera_frustum",
+                "slices of a sweep cover 360°: set it to false (and data.labels = \"label_360\")".into(),
+            );
+        }
+        if self.stream.enabled() && self.pipeline.target != starnet_data::sampling::CenterTarget::All {
+            return bad(
+                "pipeline.target",
+                "streaming spreads the centers over slices: use \"all\"".into(),
+            );
         }
         Ok(())
     }

@@ -163,6 +163,14 @@ pub fn golden(model: &StarNet, c: usize, p: usize, seed: u64) -> Vec<NamedTensor
 /// Writes `model.safetensors`, `model.json`, `model.onnx` and `golden.safetensors` for `model`
 /// (in validation mode) into `out`; returns the files written.
 pub fn export(model: &StarNet, cfg: &ExperimentConfig, out: &Path) -> Result<Vec<PathBuf>> {
+    if model.has_lstm() {
+        // The ONNX graph and model.json describe the per-center network only; a half export
+        // that silently drops the LSTM would detect differently.
+        return Err(crate::TrainError::InvalidArgument {
+            name: "--checkpoint".into(),
+            message: "exporting the streaming LSTM variant (model.lstm_hidden > 0) is not supported yet".into(),
+        });
+    }
     std::fs::create_dir_all(out).map_err(|e| starnet_data::DataError::io(out, e))?;
     let metadata = BTreeMap::from([
         ("format".to_string(), "starnet".to_string()),

@@ -15,7 +15,9 @@ pub mod export;
 pub mod inspect;
 pub mod prepare;
 pub mod render;
+pub mod stream;
 pub mod synth;
+pub mod temporal;
 pub mod train;
 
 pub use error::{Result, TrainError};

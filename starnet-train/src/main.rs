@@ -11,8 +11,13 @@ use starnet_train::curves::plot_run;
 use starnet_train::inspect::inspect_frame;
 use starnet_train::prepare::run_prepare;
 use starnet_train::render::{BevOptions, RenderOptions, render_frame};
+use starnet_train::stream::{StreamGroundTruth, StreamModel, stream_runs, stream_tables, write_stream};
 use starnet_train::synth::{SynthJob, run_stats, run_synth};
-use starnet_train::train::{TrainOptions, load_model, run_dir_for, train};
+use starnet_train::temporal::{
+    PrevCenters, Sequence, TemporalReport, evaluate_sequences, open_sequences, seeded_centers, temporal_table,
+    write_temporal,
+};
+use starnet_train::train::{Budget, TrainOptions, load_model, run_dir_for, train};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -78,6 +83,14 @@ enum Command {
         /// Seed for --augment and --centers.
         #[arg(long, default_value_t = 0)]
         seed: u64,
+        /// With --prev-centers on a sequence folder (ROOT/sequences/NNNN, with poses.txt): the
+        /// model whose previous-frame detections seed this frame's --centers.
+        #[arg(long, requires = "prev_centers")]
+        checkpoint: Option<PathBuf>,
+        /// How many of the --centers come from the previous frame's detections (32 or 50%);
+        /// seeded centers are drawn in cyan.
+        #[arg(long, requires = "checkpoint")]
+        prev_centers: Option<PrevCenters>,
     },
     /// Measure how many objects (with at least 5 points) the sampled centers reach: the share
     /// with an anchor at BEV IoU > 0.5 around some center, per sampler and center count
@@ -164,14 +177,56 @@ enum Command {
         #[arg(long = "set", value_name = "KEY=VALUE")]
         sets: Vec<String>,
         /// Where to write, per budget, the result files and eval.json (in c{C}_p{P}/), and for a
-        /// sweep budget.md, budget.json and the plots budget_gflop.png and budget_latency.png.
+        /// sweep budget.md, budget.json and the plots budget_gflop.png and budget_latency.png;
+        /// with --sequences, temporal.md, temporal.json and temporal_ap.png.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Evaluate the sequences under ROOT/sequences/ (from `starnet synth --sequences`) frame
+        /// by frame, seeding each frame's centers with the previous frame's detections.
+        #[arg(long)]
+        sequences: bool,
+        /// With --sequences: how many of the centers come from the previous frame's best
+        /// detections, as counts (32) or shares (50%); a list evaluates each with each --centers.
+        #[arg(long, value_delimiter = ',', default_value = "0")]
+        prev_centers: Vec<PrevCenters>,
     },
     /// Export a checkpoint for other runtimes: model.safetensors (PyTorch names and layouts, the
     /// config in its metadata), model.json (the contract for host code: features, widths, anchors
     /// and their order, box coder, classes, NMS, sampling) and golden.safetensors (an input and
     /// the outputs it must give).
+    /// Streaming evaluation: each sweep cut into n azimuth slices and detected slice by slice;
+    /// Waymo-style AP per class with per-slice ("localized"), stateful and global NMS, vehicle AP
+    /// by subtended angle, peak compute and measured per-slice latency with the worst-case
+    /// latency model. Writes stream.md, stream.json and three plots with --out.
+    StreamEval {
+        /// Checkpoint folders (repeat or comma-separate: e.g. a localized and an LSTM model).
+        #[arg(long, value_delimiter = ',', required = true)]
+        checkpoint: Vec<PathBuf>,
+        /// KITTI root (default: the first run's data root).
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Split to evaluate.
+        #[arg(long, default_value = "val")]
+        split: String,
+        /// Slice counts n (1, the whole-sweep reference, is always run).
+        #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32")]
+        slices: Vec<usize>,
+        /// Evaluate only the first N sweeps of the split.
+        #[arg(long)]
+        frames: Option<usize>,
+        /// Centers per sweep (default: each config's eval.num_centers), spread over the slices.
+        #[arg(long)]
+        centers: Option<usize>,
+        /// Points per center (default: each config's eval.num_points).
+        #[arg(long)]
+        points: Option<usize>,
+        /// Override a config key of every run, e.g. --set stream.nms_memory=2 (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Where to write stream.md, stream.json, stream_ap.png, stream_flops.png, stream_latency.png.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     Export {
         /// A checkpoint folder (runs/NAME/checkpoints/best) or its model.bpk.
         #[arg(long)]
@@ -278,6 +333,8 @@ fn main() -> anyhow::Result<()> {
             augment,
             centers,
             seed,
+            checkpoint,
+            prev_centers,
         } => {
             anyhow::ensure!(range > 0.0 && px_per_m > 0.0, "--range and --px-per-m must be positive");
             anyhow::ensure!(
@@ -290,12 +347,33 @@ fn main() -> anyhow::Result<()> {
             } else {
                 BevOptions::front(range, px_per_m)
             };
+            let given_centers = match (checkpoint, prev_centers) {
+                (Some(c), Some(prev)) => {
+                    let cfg = starnet_train::config::load_config(&run_config(&c, None)?, &[])?;
+                    let model = load_model(&c, cfg.model_config().init(&starnet_model::backend::default_device()))?;
+                    let seq = Sequence::open(&data, &cfg)?;
+                    let t = seq
+                        .dataset
+                        .ids()
+                        .iter()
+                        .position(|i| *i == frame)
+                        .with_context(|| format!("no frame {frame} in {}", data.display()))?;
+                    let budget = Budget {
+                        num_centers: centers.map_or(cfg.eval.num_centers, |c| c.1),
+                        num_points: cfg.eval.num_points,
+                        target: CenterTarget::All,
+                    };
+                    Some(seeded_centers(&model, &cfg, &seq, t, budget, prev)?)
+                }
+                _ => None,
+            };
             let extra = RenderOptions {
                 results,
                 all_around: full,
                 augment,
                 centers,
                 seed,
+                given_centers,
             };
             let canvas = render_frame(&ds, &frame, &extra, &view)?;
             canvas
@@ -339,6 +417,8 @@ fn main() -> anyhow::Result<()> {
             target,
             sets,
             out,
+            sequences,
+            prev_centers,
         } => {
             let mut cfg = starnet_train::config::load_config(&run_config(&checkpoint, config)?, &sets)?;
             if let Some(d) = data {
@@ -346,6 +426,49 @@ fn main() -> anyhow::Result<()> {
             }
             let device = starnet_model::backend::default_device();
             let model = load_model(&checkpoint, cfg.model_config().init(&device))?;
+            if sequences {
+                let seqs = open_sequences(&cfg.data.root, &cfg)?;
+                let budgets = budget_grid(
+                    &if centers.is_empty() {
+                        vec![cfg.eval.num_centers]
+                    } else {
+                        centers
+                    },
+                    &[points.first().copied().unwrap_or(cfg.eval.num_points)],
+                    target,
+                );
+                let mut reports = Vec::new();
+                for b in &budgets {
+                    let first = reports.len();
+                    for &prev in &prev_centers {
+                        // `32` and `50%` of 64 are the same run: evaluate it once.
+                        let same = reports[first..]
+                            .iter()
+                            .find(|r: &&TemporalReport| r.prev_centers == prev.of(b.num_centers))
+                            .cloned();
+                        let r = match same {
+                            Some(r) => TemporalReport { prev, ..r },
+                            None => {
+                                let r = evaluate_sequences(&model, &cfg, &seqs, *b, prev)?;
+                                println!(
+                                    "{} centers, {} from t - 1: headline AP {:.2}",
+                                    r.num_centers,
+                                    r.prev_centers,
+                                    r.report.headline()
+                                );
+                                r
+                            }
+                        };
+                        reports.push(r);
+                    }
+                }
+                print!("{}", temporal_table(&reports));
+                if let Some(out) = out {
+                    write_temporal(&out, &reports)?;
+                    println!("wrote {}", out.display());
+                }
+                return Ok(());
+            }
             let ds = cfg.dataset(&split)?;
             let or = |v: Vec<usize>, d: usize| if v.is_empty() { vec![d] } else { v };
             let budgets = budget_grid(
@@ -360,6 +483,51 @@ fn main() -> anyhow::Result<()> {
             let reports = sweep(&model, &cfg, &ds, &budgets, out.as_deref(), &mut |r| println!("{r}"))?;
             if reports.len() > 1 {
                 print!("{}", budget_table(&reports));
+            }
+        }
+        Command::StreamEval {
+            checkpoint,
+            data,
+            split,
+            slices,
+            frames,
+            centers,
+            points,
+            sets,
+            out,
+        } => {
+            anyhow::ensure!(slices.iter().all(|&n| n > 0), "--slices needs positive counts");
+            let device = starnet_model::backend::default_device();
+            let mut loaded = Vec::new();
+            for c in &checkpoint {
+                let mut cfg = starnet_train::config::load_config(&run_config(c, None)?, &sets)?;
+                if let Some(d) = &data {
+                    cfg.data.root = d.clone();
+                }
+                let model = load_model(c, cfg.model_config().init(&device))?;
+                loaded.push((run_label(c), model, cfg));
+            }
+            let models: Vec<StreamModel> = loaded
+                .iter()
+                .map(|(label, model, cfg)| StreamModel {
+                    label: label.clone(),
+                    model,
+                    config: cfg,
+                    budget: Budget {
+                        num_centers: centers.unwrap_or(cfg.eval.num_centers),
+                        num_points: points.unwrap_or(cfg.eval.num_points),
+                        target: CenterTarget::All,
+                    },
+                })
+                .collect();
+            let cfg = &loaded[0].2;
+            let ds = cfg.dataset(&split)?;
+            let gt = StreamGroundTruth::read(cfg, &ds, frames)?;
+            let runs = stream_runs(&models, &ds, &gt, &slices, &mut |label, r| println!("{label}: {r}"))?;
+            print!("\n{}", stream_tables(&runs));
+            if let Some(out) = out {
+                write_stream(&out, &runs)?;
+                println!("wrote {}", out.display());
             }
         }
         Command::Export {
@@ -469,6 +637,17 @@ fn main() -> anyhow::Result<()> {
 }
 
 /// The config given, or the `config.toml` of the run folder above `checkpoint`.
+/// A checkpoint's run name: the folder above `checkpoints/`, else the checkpoint's own.
+fn run_label(checkpoint: &std::path::Path) -> String {
+    let name = |p: &std::path::Path| p.file_name().map(|n| n.to_string_lossy().into_owned());
+    checkpoint
+        .ancestors()
+        .find(|a| a.file_name().is_some_and(|n| n == "checkpoints"))
+        .and_then(|a| a.parent().and_then(name))
+        .or_else(|| name(checkpoint))
+        .unwrap_or_else(|| "model".into())
+}
+
 fn run_config(checkpoint: &std::path::Path, given: Option<PathBuf>) -> anyhow::Result<PathBuf> {
     match given {
         Some(c) => Ok(c),

@@ -155,6 +155,26 @@ impl Box3d {
     pub fn count_points_inside(&self, cloud: &[Point]) -> usize {
         self.points_inside(cloud).len()
     }
+
+    /// The azimuth angle the box subtends seen from the sensor in bird's-eye view, radians
+    /// (2π when the sensor is inside it): how many streaming slices it can cross.
+    pub fn subtended_angle(&self) -> f32 {
+        let c = self.corners_bev();
+        if self
+            .to_local([0.0, 0.0, self.z])
+            .iter()
+            .take(2)
+            .zip([self.dx, self.dy])
+            .all(|(v, d)| v.abs() <= 0.5 * d)
+        {
+            return std::f32::consts::TAU;
+        }
+        let mid = self.y.atan2(self.x);
+        let rel = c.map(|p| wrap_angle(p[1].atan2(p[0]) - mid));
+        let max = rel.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let min = rel.iter().copied().fold(f32::INFINITY, f32::min);
+        max - min
+    }
 }
 
 #[cfg(test)]
@@ -168,6 +188,29 @@ mod tests {
         assert!((wrap_angle(-PI - 0.25) - (PI - 0.25)).abs() < 1e-6);
         assert!((wrap_angle(7.0 * PI) + PI).abs() < 1e-5);
         assert_eq!(wrap_angle(-PI), -PI);
+    }
+
+    #[test]
+    fn subtended_angle_hand_values() {
+        let close =
+            |b: Box3d, v: f32| assert!((b.subtended_angle() - v).abs() < 1e-5, "{b:?}: {}", b.subtended_angle());
+        // Nearest edge at 9 m, 1 m either side: 2·atan(1/9).
+        close(
+            Box3d::new(10.0, 0.0, -1.0, 2.0, 2.0, 1.5, 0.0),
+            2.0 * (1.0f32 / 9.0).atan(),
+        );
+        // Turned 90°: 4 m across at 9 m.
+        close(
+            Box3d::new(10.0, 0.0, -1.0, 4.0, 2.0, 1.5, std::f32::consts::FRAC_PI_2),
+            2.0 * (2.0f32 / 9.0).atan(),
+        );
+        // Straddling the ±180° seam behind the sensor.
+        close(
+            Box3d::new(-10.0, 0.0, -1.0, 2.0, 2.0, 1.5, 0.3),
+            Box3d::new(10.0, 0.0, -1.0, 2.0, 2.0, 1.5, 0.3).subtended_angle(),
+        );
+        // Around the sensor.
+        close(Box3d::new(0.5, 0.0, -1.0, 4.0, 2.0, 1.5, 0.0), std::f32::consts::TAU);
     }
 
     #[test]

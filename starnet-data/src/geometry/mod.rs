@@ -1,10 +1,13 @@
 //! Box geometry in the LiDAR frame: the [`Box3d`] type, angle wrapping, rotated BEV and 3D
-//! IoU by convex polygon clipping, a pairwise IoU matrix, and points-in-box tests.
+//! IoU by convex polygon clipping, a pairwise IoU matrix, points-in-box tests, and rigid poses
+//! (KITTI odometry `poses.txt`).
 
 mod box3d;
 mod iou;
 mod polygon;
+mod pose;
 
 pub use box3d::{Box3d, wrap_angle};
 pub use iou::{IouKind, iou_3d, iou_bev, iou_matrix};
 pub use polygon::{convex_intersection_area, polygon_area};
+pub use pose::{Pose, read_poses};

@@ -1,5 +1,6 @@
 //! From a loaded frame to the model's input (DESIGN §4–§5): the center pool, center sampling
-//! (random, FPS, seeded FPS), neighbourhood gathering, and the anchor layout around centers.
+//! (random, FPS, seeded FPS), neighbourhood gathering, the anchor layout around centers, and the
+//! azimuth slices of a streaming sweep.
 
 mod anchors;
 mod centers;
@@ -8,6 +9,7 @@ mod fps;
 mod gather;
 mod pool;
 mod prepare;
+mod slices;
 mod target;
 
 pub use anchors::{AnchorGrid, AnchorPrior};
@@ -16,4 +18,5 @@ pub use coverage::{CoverageConfig, CoverageTable, coverage};
 pub use gather::{GatherConfig, NUM_FEATURES, Neighbourhoods, SpatialGrid, gather, gather_with_grid};
 pub use pool::{CenterPoolConfig, center_pool, z_band_from_labels};
 pub use prepare::{Augmentation, PipelineConfig, PreparedFrame, prepare_frame};
+pub use slices::{SliceConfig, centers_per_slice, prepare_slice, prepare_sweep, slice_points, slice_rng};
 pub use target::CenterTarget;

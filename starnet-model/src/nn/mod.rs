@@ -1,14 +1,16 @@
 //! The network's layers: masked batch normalisation, the StarNet block, the featurizer, and
-//! the model with its projector and heads.
+//! the model with its projector and heads, and the streaming variant's LSTM over slices.
 
 mod block;
 mod featurizer;
 mod masked_bn;
+mod slice_lstm;
 mod starnet;
 
 pub use block::{StarNetBlock, StarNetBlockConfig, masked_max, masked_mean};
 pub use featurizer::{Featurizer, FeaturizerConfig};
 pub use masked_bn::{MaskedBatchNorm, MaskedBatchNormConfig};
+pub use slice_lstm::{SliceLstm, SliceLstmConfig, SliceState};
 pub use starnet::{ModelInput, ModelOutput, StarNet, StarNetConfig};
 
 use burn::nn::{Initializer, Linear, LinearConfig};

@@ -1,8 +1,14 @@
 //! The StarNet model (paper §3.3, lingvo `starnet.ModelV2`): featurizer → projector (BN →
 //! Linear(cell → G²·D) → ReLU, one D-dim feature per grid offset) → heads shared across offsets:
 //! class logits (bias −4.595, a 0.01 prior) and box residuals (zero-initialised).
+//!
+//! The streaming variant adds a [`SliceLstm`] between featurizer and projector
+//! ([`StarNet::forward_slices`]); without it every center is independent of the others.
 
-use super::{Featurizer, FeaturizerConfig, MaskedBatchNorm, MaskedBatchNormConfig, linear};
+use super::{
+    Featurizer, FeaturizerConfig, MaskedBatchNorm, MaskedBatchNormConfig, SliceLstm, SliceLstmConfig, SliceState,
+    linear,
+};
 use burn::module::{Module, Param};
 use burn::nn::Linear;
 use burn::prelude::*;
@@ -40,6 +46,9 @@ pub struct StarNetConfig {
     pub anchors: AnchorGrid,
     /// Classes K.
     pub num_classes: usize,
+    /// Hidden width of the streaming LSTM over slices (the paper: 128); `None`: no LSTM.
+    #[config(default = "None")]
+    pub lstm_hidden: Option<usize>,
 }
 
 /// Logit of the classification prior 0.01: ln(0.01 / 0.99).
@@ -80,6 +89,9 @@ impl StarNetConfig {
             proj: linear(cell, offsets * self.d_offset, true, device),
             cls_head,
             box_head,
+            lstm: self
+                .lstm_hidden
+                .map(|h| SliceLstmConfig::new(cell).with_d_hidden(h).init(device)),
             d_offset: self.d_offset,
             num_classes: self.num_classes,
         }
@@ -94,21 +106,65 @@ pub struct StarNet {
     proj: Linear,
     cls_head: Linear,
     box_head: Linear,
+    lstm: Option<SliceLstm>,
     d_offset: usize,
     num_classes: usize,
 }
 
 impl StarNet {
+    /// Every batch item a whole sweep (for the streaming variant: a sweep of one slice, from a
+    /// fresh state).
+    ///
     /// # Shapes
     /// - input: points `[B, C, P, F]`, mask `[B, C, P]`, center_valid `[B, C]`
     /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`
     pub fn forward(&self, input: ModelInput) -> ModelOutput {
-        let [b, c, _, _] = input.points.dims();
-        let cell = self.featurizer.forward(input.points, input.mask); // [B, C, cell]
+        self.forward_slices(input, 1, None).0
+    }
+
+    /// S consecutive slices of each of B sweeps, batch rows sweep-major (row `b · S + s` is
+    /// slice `s` of sweep `b`). The LSTM, if any, runs over the S slices from `state` (the state
+    /// after the sweeps' earlier slices; `None` at a sweep's start): training passes a whole
+    /// sweep (backpropagation through its slices), streaming inference one slice at a time.
+    ///
+    /// # Shapes
+    /// - input: points `[B·S, C, P, F]`, mask `[B·S, C, P]`, center_valid `[B·S, C]`
+    /// - state: cell and hidden `[B, H]`
+    /// - output: cls_logits `[B·S, C, A, K]`, box_residuals `[B·S, C, A, 7]`, and the state after
+    ///   slice S (`None` without an LSTM)
+    pub fn forward_slices(
+        &self,
+        input: ModelInput,
+        slices: usize,
+        state: Option<SliceState>,
+    ) -> (ModelOutput, Option<SliceState>) {
+        let [bs, c, _, _] = input.points.dims();
+        let mut cell = self.featurizer.forward(input.points, input.mask); // [BS, C, cell]
         let [_, _, d_cell] = cell.dims();
+        let mut next = None;
+        if let Some(lstm) = &self.lstm {
+            let b = bs / slices;
+            let (ctx, st) = lstm.forward(
+                cell.clone().reshape([b, slices, c, d_cell]),
+                input.center_valid.clone().reshape([b, slices, c]),
+                state,
+            ); // [B, S, 1, cell]
+            cell = cell + ctx.reshape([bs, 1, d_cell]);
+            next = Some(st);
+        }
+        (self.head(cell, input.center_valid), next)
+    }
+
+    /// The projector and heads.
+    ///
+    /// # Shapes
+    /// - cell: `[B, C, cell]`, center_valid `[B, C]`
+    /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`
+    fn head(&self, cell: Tensor<3>, center_valid: Tensor<2>) -> ModelOutput {
+        let [b, c, d_cell] = cell.dims();
         let rows = self
             .proj_bn
-            .forward(cell.reshape([b * c, d_cell]), input.center_valid.reshape([b * c, 1]));
+            .forward(cell.reshape([b * c, d_cell]), center_valid.reshape([b * c, 1]));
         let per_offset = relu(self.proj.forward(rows)); // [BC, G²·D]
         let [_, width] = per_offset.dims();
         let offsets = width / self.d_offset;
@@ -120,6 +176,11 @@ impl StarNet {
             cls_logits: cls.reshape([b, c, offsets * per, self.num_classes]),
             box_residuals: reg.reshape([b, c, offsets * per, 7]),
         }
+    }
+
+    /// Whether the model has the streaming LSTM.
+    pub fn has_lstm(&self) -> bool {
+        self.lstm.is_some()
     }
 }
 
@@ -156,6 +217,71 @@ mod tests {
                 .into_data()
                 .iter::<f32>()
                 .all(|v| (v - CLASS_PRIOR_LOGIT).abs() < 1e-6)
+        );
+    }
+
+    fn max_diff(a: Tensor<4>, b: Tensor<4>) -> f32 {
+        (a - b).abs().max().into_scalar::<f32>()
+    }
+
+    fn rows(x: &ModelInput, r: std::ops::Range<usize>) -> ModelInput {
+        ModelInput {
+            points: x.points.clone().slice_dim(0, r.clone()),
+            mask: x.mask.clone().slice_dim(0, r.clone()),
+            center_valid: x.center_valid.clone().slice_dim(0, r),
+        }
+    }
+
+    #[test]
+    fn lstm_carries_state_across_slices_and_starts_fresh_per_sweep() {
+        let dev = default_device();
+        let mut cfg = StarNetConfig::small_car();
+        cfg.lstm_hidden = Some(16);
+        let model = cfg.init(&dev);
+        assert!(model.has_lstm() && !StarNetConfig::small_car().init(&dev).has_lstm());
+        // Two sweeps of four slices, three centers each: rows sweep-major.
+        let x = input(&dev, 8, 3, 8, 6);
+        let (whole, state) = model.forward_slices(x.clone(), 4, None);
+        assert_eq!(state.expect("an LSTM state").hidden.dims(), [2, 16]);
+        // Streaming, one slice per call with the state carried, gives the same outputs.
+        let mut st = None;
+        for s in 0..4 {
+            let step = ModelInput {
+                points: Tensor::cat(vec![rows(&x, s..s + 1).points, rows(&x, 4 + s..5 + s).points], 0),
+                mask: Tensor::cat(vec![rows(&x, s..s + 1).mask, rows(&x, 4 + s..5 + s).mask], 0),
+                center_valid: Tensor::cat(
+                    vec![rows(&x, s..s + 1).center_valid, rows(&x, 4 + s..5 + s).center_valid],
+                    0,
+                ),
+            };
+            let (out, next) = model.forward_slices(step, 1, st);
+            st = next;
+            let expect = Tensor::cat(
+                vec![
+                    whole.cls_logits.clone().slice_dim(0, s..s + 1),
+                    whole.cls_logits.clone().slice_dim(0, 4 + s..5 + s),
+                ],
+                0,
+            );
+            assert!(max_diff(out.cls_logits, expect) < 1e-4, "slice {s}");
+        }
+        // The state changes the output: slice 2 of sweep 0, run as the first slice of a sweep,
+        // differs from what it gave after slices 0 and 1.
+        let fresh = model.forward_slices(rows(&x, 2..3), 1, None).0;
+        let after = whole.cls_logits.clone().slice_dim(0, 2..3);
+        assert!(max_diff(fresh.cls_logits.clone(), after) > 1e-3);
+        // Sweeps do not share state: sweep 1's first slice equals a fresh run of it.
+        let first = model.forward_slices(rows(&x, 4..5), 1, None).0;
+        assert!(max_diff(first.cls_logits, whole.cls_logits.slice_dim(0, 4..5)) < 1e-4);
+        // Without an LSTM, slices are independent: the plain forward of any row equals it in a sweep.
+        let plain = StarNetConfig::small_car().init(&dev);
+        let (sw, none) = plain.forward_slices(x.clone(), 4, None);
+        assert!(none.is_none());
+        assert!(
+            max_diff(
+                plain.forward(rows(&x, 5..6)).cls_logits,
+                sw.cls_logits.slice_dim(0, 5..6)
+            ) < 1e-5
         );
     }
 }

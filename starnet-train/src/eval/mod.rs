@@ -1,11 +1,13 @@
 //! Evaluation: KITTI AP as the official devkit computes it, Waymo-style AP/APH by difficulty
-//! level and range, and AP per distance bin.
+//! level and range, AP per distance bin, and AP per subtended angle.
 
+mod angle_ap;
 mod hungarian;
 mod kitti_ap;
 mod range_ap;
 mod waymo_ap;
 
+pub use angle_ap::{ANGLE_BINS_DEG, AngleAp, ap_by_angle};
 pub use hungarian::max_weight_matching;
 pub use kitti_ap::{Ap, ApMetric, ClassAp, kitti_ap, official_min_overlap};
 pub use range_ap::{RANGE_BIN_M, RangeAp, ap_by_range};

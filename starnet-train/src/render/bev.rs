@@ -9,7 +9,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::{AugmentConfig, GtDatabase, Scene, augment};
 use starnet_data::kitti::{KittiDataset, ObjectClass, read_labels};
-use starnet_data::sampling::{CenterPoolConfig, CenterZ, Sampler, center_pool, sample_centers};
+use starnet_data::sampling::{CenterPoolConfig, CenterZ, Centers, Sampler, center_pool, sample_centers};
 use starnet_data::sim::read_sidecar;
 use starnet_data::{Box3d, DataError, Point};
 use std::path::PathBuf;
@@ -85,7 +85,10 @@ const RING: Rgb = [48, 52, 64];
 const GT: Rgb = [60, 230, 100];
 const PRED: Rgb = [255, 140, 20];
 const TEXT: Rgb = [230, 230, 230];
-const CENTER: Rgb = [255, 60, 220];
+/// Colour of sampled centers.
+pub const CENTER: Rgb = [255, 60, 220];
+/// Colour of centers seeded from the previous frame's detections.
+pub const SEEDED: Rgb = [40, 220, 255];
 
 /// Height colour: blue at the road (z ≈ −1.7 m), through green, to red at +1 m and above.
 fn height_colour(z: f32) -> Rgb {
@@ -210,6 +213,9 @@ pub struct RenderOptions {
     pub centers: Option<(Sampler, usize)>,
     /// Seed for augmentation and sampling.
     pub seed: u64,
+    /// Centers to draw instead of sampling (e.g. temporally seeded ones, from
+    /// `temporal::seeded_centers`): the first `num_seeded` in [`SEEDED`], the rest in [`CENTER`].
+    pub given_centers: Option<Centers>,
 }
 
 /// Loads frame `id` of `dataset` and draws it with the extras `extra` asks for. Ground truth
@@ -245,8 +251,12 @@ pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opt
             if draw.flipped { ", FLIPPED" } else { "" }
         );
     }
-    let centers = match extra.centers {
-        Some((sampler, n)) => {
+    let centers = match (&extra.given_centers, extra.centers) {
+        (Some(given), _) => {
+            title += &format!("  {} CENTERS, {} SEEDED FROM T-1", given.len(), given.num_seeded);
+            given.clone()
+        }
+        (None, Some((sampler, n))) => {
             let pool_cfg = if extra.all_around {
                 CenterPoolConfig::all_around(opts.reach())
             } else {
@@ -254,9 +264,9 @@ pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opt
             };
             let pool = center_pool(&scene.points, &pool_cfg, Some((&frame.calib, frame.image_size)));
             title += &format!("  {n} {sampler:?} CENTERS").to_uppercase();
-            sample_centers(&scene.points, &pool, n, sampler, &[], CenterZ::Point, &mut rng).xyz
+            sample_centers(&scene.points, &pool, n, sampler, &[], CenterZ::Point, &mut rng)
         }
-        None => Vec::new(),
+        (None, None) => sample_centers(&[], &[], 0, Sampler::Random, &[], CenterZ::Point, &mut rng),
     };
     let gt: Vec<BevBox> = scene
         .boxes
@@ -291,9 +301,15 @@ pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opt
         }
     };
     let mut canvas = render_bev(&scene.points, &gt, &preds, opts, &title);
-    for c in &centers {
+    // Seeded centers last and larger, so FPS centers never hide them.
+    for (i, c) in centers.xyz.iter().enumerate().rev() {
         let [u, v] = opts.pixel(c[0], c[1]);
-        canvas.fill_rect(u as i64 - 2, v as i64 - 2, u as i64 + 3, v as i64 + 3, CENTER);
+        let (r, colour) = if i < centers.num_seeded {
+            (3, SEEDED)
+        } else {
+            (2, CENTER)
+        };
+        canvas.fill_rect(u as i64 - r, v as i64 - r, u as i64 + r + 1, v as i64 + r + 1, colour);
     }
     Ok(canvas)
 }

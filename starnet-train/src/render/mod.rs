@@ -5,6 +5,6 @@ mod canvas;
 mod font;
 mod plot;
 
-pub use bev::{BevBox, BevOptions, RenderOptions, render_bev, render_frame};
+pub use bev::{BevBox, BevOptions, CENTER, RenderOptions, SEEDED, render_bev, render_frame};
 pub use canvas::{Canvas, Rgb};
 pub use plot::{LinePlot, Series};

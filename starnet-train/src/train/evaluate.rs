@@ -205,12 +205,7 @@ pub fn evaluate(
     let pipeline = budget.pipeline(&cfg.pipeline);
     let nms = cfg.nms_config();
     let anchors = &cfg.model.anchors;
-    // KITTI's metrics need the camera-view labels; 360° labels get the Waymo-style ones only.
-    let camera_view = dataset.labels() == LabelSource::Camera;
-    let mut frames = Vec::new();
-    let mut calibs = Vec::new();
-    let mut waymo_frames = Vec::new();
-    let mut times = Vec::new();
+    let mut scorer = Scorer::new(cfg, dataset.labels(), results);
     for (chunk_i, ids) in dataset.ids().chunks(cfg.eval.batch_size).enumerate() {
         let loaded: Vec<_> = ids
             .iter()
@@ -227,7 +222,7 @@ pub fn evaluate(
                     &pipeline,
                     None,
                     &[],
-                    &mut ChaCha8Rng::seed_from_u64(sub_seed(cfg.seed, 21, (chunk_i * cfg.eval.batch_size + k) as u64)),
+                    &mut ChaCha8Rng::seed_from_u64(frame_seed(cfg, chunk_i * cfg.eval.batch_size + k)),
                 )
             })
             .collect();
@@ -238,61 +233,108 @@ pub fn evaluate(
             .map(|(k, p)| decode_frame(&out, k, p, anchors, &nms))
             .collect();
         let per_frame = start.elapsed().as_secs_f64() * 1e3 / ids.len() as f64;
-        times.extend(std::iter::repeat_n(per_frame, ids.len()));
         for (frame, decoded) in loaded.into_iter().zip(decoded) {
-            let projected: Vec<Option<KittiObject>> = decoded
-                .iter()
-                .map(|d| to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size))
-                .collect();
-            // Camera-view labels: a detection counts when it projects into the image.
-            let lidar = decoded
-                .iter()
-                .zip(&projected)
-                .filter(|(_, kitti)| !camera_view || kitti.is_some())
-                .map(|(d, _)| WaymoDetection {
-                    class: cfg.data.classes[d.class],
-                    b: d.b,
-                    score: d.score,
-                })
-                .collect();
-            let dets: Vec<KittiObject> = projected.into_iter().flatten().collect();
-            if let Some(dir) = results {
-                write_results(&dir.join(format!("{}.txt", frame.id)), &dets)?;
-            }
-            waymo_frames.push(WaymoFrame {
-                objects: waymo_objects(&frame),
-                detections: lidar,
-            });
-            calibs.push(frame.calib.clone());
-            frames.push((frame.objects, dets));
+            scorer.add(frame, &decoded, per_frame)?;
         }
     }
-    let mut sorted = times.clone();
-    sorted.sort_by(f64::total_cmp);
-    let p95 = sorted
-        .get(((sorted.len() as f64 * 0.95) as usize).min(sorted.len().saturating_sub(1)))
-        .copied()
-        .unwrap_or(0.0);
-    Ok(EvalReport {
-        frames: frames.len(),
-        num_centers: budget.num_centers,
-        num_points: budget.num_points,
-        target: budget.target,
-        gflop_per_frame: forward_gflop(&cfg.model_config(), budget.model_centers(), budget.num_points),
-        latency_ms_mean: times.iter().sum::<f64>() / times.len().max(1) as f64,
-        latency_ms_p95: p95,
-        classes: if camera_view {
-            kitti_ap(&frames, &cfg.data.classes)
-        } else {
-            Vec::new()
-        },
-        waymo: waymo_ap(&waymo_frames, &cfg.data.classes),
-        by_range: if camera_view {
-            ap_by_range(&frames, &calibs, cfg.data.classes[0], RANGE_BINS_MAX_M)
-        } else {
-            Vec::new()
-        },
-    })
+    Ok(scorer.finish(budget))
+}
+
+/// The seed of the `i`-th evaluated frame's sampling RNG.
+pub fn frame_seed(cfg: &ExperimentConfig, i: usize) -> u64 {
+    sub_seed(cfg.seed, 21, i as u64)
+}
+
+/// Collects frames and their detections and scores them: KITTI AP (camera-view labels),
+/// Waymo-style AP/APH and AP per 10 m, with the per-frame latencies given. Frames are reduced
+/// to what scoring needs as they arrive, so a split never sits in memory.
+pub struct Scorer<'a> {
+    cfg: &'a ExperimentConfig,
+    camera_view: bool,
+    results: Option<&'a Path>,
+    frames: Vec<(Vec<KittiObject>, Vec<KittiObject>)>,
+    calibs: Vec<Calib>,
+    waymo_frames: Vec<WaymoFrame>,
+    times: Vec<f64>,
+}
+
+impl<'a> Scorer<'a> {
+    /// Scores against `labels`; writes `{id}.txt` result files to `results` when given.
+    pub fn new(cfg: &'a ExperimentConfig, labels: LabelSource, results: Option<&'a Path>) -> Self {
+        Self {
+            cfg,
+            // KITTI's metrics need the camera-view labels; 360° labels get the Waymo-style ones only.
+            camera_view: labels == LabelSource::Camera,
+            results,
+            frames: Vec::new(),
+            calibs: Vec::new(),
+            waymo_frames: Vec::new(),
+            times: Vec::new(),
+        }
+    }
+
+    /// Adds a frame, its final detections and the time they took (ms).
+    pub fn add(&mut self, frame: Frame, detections: &[Detection], ms: f64) -> Result<()> {
+        let cfg = self.cfg;
+        let projected: Vec<Option<KittiObject>> = detections
+            .iter()
+            .map(|d| to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size))
+            .collect();
+        // Camera-view labels: a detection counts when it projects into the image.
+        let lidar = detections
+            .iter()
+            .zip(&projected)
+            .filter(|(_, kitti)| !self.camera_view || kitti.is_some())
+            .map(|(d, _)| WaymoDetection {
+                class: cfg.data.classes[d.class],
+                b: d.b,
+                score: d.score,
+            })
+            .collect();
+        let dets: Vec<KittiObject> = projected.into_iter().flatten().collect();
+        if let Some(dir) = self.results {
+            write_results(&dir.join(format!("{}.txt", frame.id)), &dets)?;
+        }
+        self.waymo_frames.push(WaymoFrame {
+            objects: waymo_objects(&frame),
+            detections: lidar,
+        });
+        self.calibs.push(frame.calib.clone());
+        self.frames.push((frame.objects, dets));
+        self.times.push(ms);
+        Ok(())
+    }
+
+    /// The report, for frames evaluated at `budget`.
+    pub fn finish(self, budget: Budget) -> EvalReport {
+        let cfg = self.cfg;
+        let mut sorted = self.times.clone();
+        sorted.sort_by(f64::total_cmp);
+        let p95 = sorted
+            .get(((sorted.len() as f64 * 0.95) as usize).min(sorted.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(0.0);
+        EvalReport {
+            frames: self.frames.len(),
+            num_centers: budget.num_centers,
+            num_points: budget.num_points,
+            target: budget.target,
+            gflop_per_frame: forward_gflop(&cfg.model_config(), budget.model_centers(), budget.num_points),
+            latency_ms_mean: self.times.iter().sum::<f64>() / self.times.len().max(1) as f64,
+            latency_ms_p95: p95,
+            classes: if self.camera_view {
+                kitti_ap(&self.frames, &cfg.data.classes)
+            } else {
+                Vec::new()
+            },
+            waymo: waymo_ap(&self.waymo_frames, &cfg.data.classes),
+            by_range: if self.camera_view {
+                ap_by_range(&self.frames, &self.calibs, cfg.data.classes[0], RANGE_BINS_MAX_M)
+            } else {
+                Vec::new()
+            },
+        }
+    }
 }
 
 /// A frame's labelled objects (DontCare aside) as Waymo ground truth, with the LiDAR returns

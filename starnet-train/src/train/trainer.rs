@@ -14,6 +14,7 @@ use super::evaluate::{Budget, EvalReport, evaluate};
 use super::schedule::lr_multiplier;
 use crate::config::{ExperimentConfig, to_toml};
 use crate::prepare::database_path;
+use crate::stream::{NmsMode, StreamGroundTruth, evaluate_stream};
 use crate::synth::progress_bar;
 use crate::{Result, TrainError};
 use burn::module::Module;
@@ -23,11 +24,13 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::GtDatabase;
+use starnet_data::kitti::KittiDataset;
 use starnet_data::loader::Loader;
-use starnet_data::sampling::{Augmentation, prepare_frame};
+use starnet_data::sampling::{Augmentation, prepare_frame, prepare_sweep};
 use starnet_data::sim::{SynthConfig, sub_seed, synth_frames};
 use starnet_model::batch::{frame_targets, make_batch};
 use starnet_model::loss::starnet_loss;
+use starnet_model::nn::StarNet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -82,6 +85,31 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
         crate::prepare::run_prepare(root, &cfg.data.train_split)?;
     }
     Ok(())
+}
+
+/// The slice count of step `step` of a streaming config (drawn from `stream.train_slices`, the
+/// same for every sweep of the step), `None` when training on whole sweeps.
+pub fn slices_at(cfg: &ExperimentConfig, step: u64) -> Option<usize> {
+    let choices = &cfg.stream.train_slices;
+    (!choices.is_empty()).then(|| choices[(sub_seed(cfg.seed, 33, step) % choices.len() as u64) as usize])
+}
+
+/// The validation of a run: [`evaluate`] at the config's budget, or for a streaming config
+/// (sliced training or an LSTM) the streamed evaluation at `stream.eval_slices` with stateful
+/// NMS.
+pub fn validate(
+    model: &StarNet,
+    cfg: &ExperimentConfig,
+    val: &KittiDataset,
+    results: Option<&Path>,
+) -> Result<EvalReport> {
+    if !cfg.stream.enabled() && cfg.model.lstm_hidden == 0 {
+        return evaluate(model, cfg, val, Budget::of(cfg), results);
+    }
+    let gt = StreamGroundTruth::read(cfg, val, None)?;
+    let report = evaluate_stream(model, cfg, val, &gt, Budget::of(cfg), cfg.stream.eval_slices)?;
+    println!("{report}");
+    Ok(report.eval_report(NmsMode::Stateful))
 }
 
 /// The run folder of a config: `{run_root}/{file stem}`.
@@ -143,7 +171,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
         }
     };
     // The model evaluated and kept as `best`: the averaged weights when there is an EMA.
-    let eval_model = |model: &starnet_model::nn::StarNet, ema: &Option<WeightEma>| match ema {
+    let eval_model = |model: &StarNet, ema: &Option<WeightEma>| match ema {
         Some(e) => e.apply(model),
         None => model.valid(),
     };
@@ -175,9 +203,18 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
                     config: &cfg.augment,
                     database: db.as_deref(),
                 };
-                let prepared = prepare_frame(&frame, &cfg.pipeline, Some(aug), &[], &mut rng);
-                let targets = frame_targets(&prepared, &cfg.model.anchors, &cfg.data.classes, &cfg.assign);
-                Ok((prepared, targets))
+                // A sweep is a sequence of slices (one, unless streaming), each a frame of its own.
+                let slices = match slices_at(&cfg, (k / batch) as u64) {
+                    None => vec![prepare_frame(&frame, &cfg.pipeline, Some(aug), &[], &mut rng)],
+                    Some(n) => prepare_sweep(&frame, &cfg.pipeline, &cfg.stream.slicing, n, Some(aug), &mut rng),
+                };
+                Ok(slices
+                    .into_iter()
+                    .map(|p| {
+                        let t = frame_targets(&p, &cfg.model.anchors, &cfg.data.classes, &cfg.assign);
+                        (p, t)
+                    })
+                    .collect::<Vec<_>>())
             },
         )
     };
@@ -213,11 +250,14 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
             interrupted = true;
             break;
         }
-        let step_items: Vec<_> = (&mut items).take(batch).collect::<std::result::Result<_, _>>()?;
-        let frames: Vec<_> = step_items.iter().map(|(p, _)| p).collect();
-        let targets: Vec<_> = step_items.iter().map(|(_, t)| t).collect();
+        let step_items: Vec<Vec<_>> = (&mut items).take(batch).collect::<std::result::Result<_, _>>()?;
+        let slices = step_items[0].len();
+        // Sweep-major: the slices of each sweep in order, as `forward_slices` expects.
+        let frames: Vec<_> = step_items.iter().flatten().map(|(p, _)| p).collect();
+        let targets: Vec<_> = step_items.iter().flatten().map(|(_, t)| t).collect();
         let b = make_batch(&frames, &targets, cfg.data.classes.len(), &device);
-        let terms = starnet_loss(&model.forward(b.input), &b.targets, &loss_cfg);
+        let (out, _) = model.forward_slices(b.input, slices, None);
+        let terms = starnet_loss(&out, &b.targets, &loss_cfg);
         let values: Vec<f32> = [
             &terms.total,
             &terms.classification,
@@ -264,7 +304,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
             let due =
                 cfg.train.eval_every > 0 && epoch_done.is_multiple_of(cfg.train.eval_every as u64) && state.step < end;
             if due {
-                let report = evaluate(&eval_model(&model, &ema), cfg, &val_set, Budget::of(cfg), None)?;
+                let report = validate(&eval_model(&model, &ema), cfg, &val_set, None)?;
                 writeln!(
                     log,
                     "{}",
@@ -295,13 +335,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
         });
     }
     let results = run_dir.join("results");
-    let report = evaluate(
-        &eval_model(&model, &ema),
-        cfg,
-        &val_set,
-        Budget::of(cfg),
-        Some(&results),
-    )?;
+    let report = validate(&eval_model(&model, &ema), cfg, &val_set, Some(&results))?;
     if state.best_metric.is_none_or(|b| report.headline() >= b) {
         state.best_metric = Some(report.headline());
         save_checkpoint(&ckpt_dir, "best", &model, &optim, ema.as_ref(), &state)?;

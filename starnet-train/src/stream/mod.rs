@@ -1,0 +1,14 @@
+//! Streaming detection (Han et al., "Streaming object detection for 3-D point clouds"): a sweep
+//! cut into n azimuth slices and detected slice by slice as the laser delivers them, with
+//! per-slice ("localized"), stateful and global NMS, the optional LSTM over slices, AP per
+//! subtended angle, peak compute and the worst-case latency model. `starnet stream-eval` runs
+//! [`evaluate_stream`] over several slice counts and writes [`write_stream`]'s tables and plots.
+
+mod report;
+mod run;
+
+pub use report::{Latency, StreamRun, latency, stream_plots, stream_tables, write_stream};
+pub use run::{
+    ModeReport, NmsMode, StreamGroundTruth, StreamModel, StreamReport, StreamedSweep, evaluate_stream, stream_runs,
+    stream_sweep,
+};

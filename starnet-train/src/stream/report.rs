@@ -1,0 +1,250 @@
+//! The streaming evaluation's outputs: tables of AP per slice count and NMS mode, of vehicle AP
+//! per subtended angle (the paper's table 1), of peak compute and latency with the paper's
+//! worst-case latency model (§4.4: scanning a slice at the LiDAR rate, then inferring on it,
+//! against a full rotation then a full-sweep inference), and their plots.
+
+use super::run::{NmsMode, StreamReport};
+use crate::Result;
+use crate::eval::ANGLE_BINS_DEG;
+use crate::render::{LinePlot, Series};
+use serde::{Deserialize, Serialize};
+use starnet_data::io::atomic_write;
+use starnet_data::kitti::ObjectClass;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One model's reports, one per slice count (ascending; the first at n = 1).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct StreamRun {
+    /// A name for the model (its run folder).
+    pub label: String,
+    /// Classes, in the model's order.
+    pub classes: Vec<ObjectClass>,
+    /// LiDAR rotation rate, Hz.
+    pub scan_hz: f64,
+    /// Per slice count.
+    pub reports: Vec<StreamReport>,
+}
+
+impl StreamRun {
+    /// The whole-sweep report (n = 1).
+    fn full(&self) -> &StreamReport {
+        &self.reports[0]
+    }
+
+    /// The row name of a mode: the paper's variant names.
+    fn row(&self, mode: NmsMode) -> String {
+        let lstm = if self.reports.first().is_some_and(|r| r.lstm) {
+            " + LSTM"
+        } else {
+            ""
+        };
+        let mode = match mode {
+            NmsMode::Localized => "localized".to_string(),
+            NmsMode::Stateful => "+ stateful NMS".to_string(),
+            NmsMode::Global => "global NMS".to_string(),
+        };
+        format!("{} | {mode}{lstm}", self.label)
+    }
+}
+
+/// The worst-case latency of one slice count: from the first return of an object to its box.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Latency {
+    /// Time to scan one slice, ms.
+    pub scan_ms: f64,
+    /// Measured inference per slice (median), ms.
+    pub inference_ms: f64,
+    /// `scan_ms + inference_ms`.
+    pub worst_case_ms: f64,
+    /// The non-streaming baseline: a full rotation, then the whole sweep's inference.
+    pub baseline_ms: f64,
+}
+
+/// The paper's worst-case latency model for `r`, with `full_ms` the whole-sweep inference.
+pub fn latency(r: &StreamReport, full_ms: f64, scan_hz: f64) -> Latency {
+    let rotation = 1e3 / scan_hz;
+    let scan_ms = rotation / r.slices as f64;
+    Latency {
+        scan_ms,
+        inference_ms: r.slice_ms_median,
+        worst_case_ms: scan_ms + r.slice_ms_median,
+        baseline_ms: rotation + full_ms,
+    }
+}
+
+/// The markdown tables of a streaming evaluation.
+pub fn stream_tables(runs: &[StreamRun]) -> String {
+    let mut s = String::new();
+    let Some(first) = runs.first() else {
+        return s;
+    };
+    let ns: Vec<usize> = first.reports.iter().map(|r| r.slices).collect();
+    let header = |s: &mut String, lead: &str| {
+        let _ = write!(s, "| {lead} |");
+        for n in &ns {
+            let _ = write!(s, " n = {n} |");
+        }
+        let _ = writeln!(s, "\n|---|---|{}", "---|".repeat(ns.len()));
+    };
+    for (k, class) in first.classes.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "{class}: Waymo-style LEVEL_1 3D AP by slices per sweep ({} sweeps, {} centers per sweep)\n",
+            first.full().frames,
+            first.full().num_centers
+        );
+        header(&mut s, "model | variant");
+        for run in runs {
+            for mode in NmsMode::ALL {
+                let _ = write!(s, "| {} |", run.row(mode));
+                for r in &run.reports {
+                    let _ = write!(s, " {:.1} |", r.ap(mode, k));
+                }
+                let _ = writeln!(s);
+            }
+        }
+        let _ = writeln!(s);
+    }
+    if let Some(last) = first.reports.last() {
+        let _ = writeln!(
+            s,
+            "{}: LEVEL_1 AP by subtended angle at n = {} (change from the whole-sweep baseline)\n",
+            first.classes[0], last.slices
+        );
+        let _ = write!(s, "| model | variant |");
+        for (b, (lo, hi)) in first.full().mode(NmsMode::Global).by_angle.iter().zip(ANGLE_BINS_DEG) {
+            let hi = if hi >= 360.0 { "+".to_string() } else { format!("-{hi}") };
+            let _ = write!(s, " {lo}{hi}° ({}) |", b.num_objects);
+        }
+        let _ = writeln!(s, "\n|---|---|{}", "---|".repeat(ANGLE_BINS_DEG.len()));
+        let base = &first.full().mode(NmsMode::Global).by_angle;
+        let _ = write!(s, "| {} | baseline (n = 1) |", first.label);
+        for b in base {
+            let _ = write!(s, " {:.1} |", b.ap);
+        }
+        let _ = writeln!(s);
+        for run in runs {
+            let Some(r) = run.reports.last() else { continue };
+            for mode in NmsMode::ALL {
+                let _ = write!(s, "| {} |", run.row(mode));
+                for (b, b0) in r.mode(mode).by_angle.iter().zip(base) {
+                    let change = if b0.ap > 0.0 {
+                        format!(" ({:+.0} %)", 100.0 * (b.ap - b0.ap) / b0.ap)
+                    } else {
+                        String::new()
+                    };
+                    let _ = write!(s, " {:.1}{change} |", b.ap);
+                }
+                let _ = writeln!(s);
+            }
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(
+        s,
+        "Peak compute and latency (per-slice latency: the median over every slice of every sweep, batch 1; worst case: scan of a slice at {} Hz + its inference, baseline: a full rotation + the whole sweep's inference)\n",
+        first.scan_hz
+    );
+    let _ = writeln!(
+        s,
+        "| model | n | centers / slice | GFLOP / slice | peak fraction | slice ms | n × slice / sweep | scan ms | worst case ms | baseline ms | speed-up |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    for run in runs {
+        let full_ms = run.full().slice_ms_median;
+        for r in &run.reports {
+            let l = latency(r, full_ms, run.scan_hz);
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1}× |",
+                run.label,
+                r.slices,
+                r.centers_per_slice,
+                r.gflop_per_slice,
+                r.peak_fraction,
+                r.slice_ms_median,
+                r.slices as f64 * r.slice_ms_median / full_ms,
+                l.scan_ms,
+                l.worst_case_ms,
+                l.baseline_ms,
+                l.baseline_ms / l.worst_case_ms
+            );
+        }
+    }
+    s
+}
+
+/// AP of the first class against n and against peak compute, and worst-case latency against n.
+pub fn stream_plots(runs: &[StreamRun]) -> [LinePlot; 3] {
+    let class = runs
+        .first()
+        .map_or(String::new(), |r| r.classes[0].to_string().to_uppercase());
+    let series = |x: &dyn Fn(&StreamReport) -> f64| {
+        runs.iter()
+            .flat_map(|run| {
+                NmsMode::ALL.into_iter().map(move |mode| Series {
+                    name: run.row(mode).replace(" | ", ": ").to_uppercase(),
+                    points: run.reports.iter().map(|r| (x(r), r.ap(mode, 0))).collect(),
+                })
+            })
+            .collect::<Vec<_>>()
+    };
+    let y_label = format!("{class} LEVEL_1 AP (%)");
+    let by_n = LinePlot {
+        title: "STREAMING: AP VS SLICES PER SWEEP".into(),
+        x_label: "SLICES N".into(),
+        y_label: y_label.clone(),
+        series: series(&|r| r.slices as f64),
+        log_x: true,
+        y_range: None,
+    };
+    let by_flops = LinePlot {
+        title: "STREAMING: AP VS PEAK COMPUTE (FRACTION OF A WHOLE SWEEP)".into(),
+        x_label: "PEAK GFLOP / WHOLE-SWEEP GFLOP".into(),
+        y_label,
+        series: series(&|r| r.peak_fraction),
+        log_x: true,
+        y_range: None,
+    };
+    let mut lat = Vec::new();
+    for run in runs {
+        let full = run.full().slice_ms_median;
+        let pts = |f: &dyn Fn(&Latency) -> f64| {
+            run.reports
+                .iter()
+                .map(|r| (r.slices as f64, f(&latency(r, full, run.scan_hz))))
+                .collect()
+        };
+        lat.push(Series {
+            name: format!("{}: STREAMING", run.label.to_uppercase()),
+            points: pts(&|l| l.worst_case_ms),
+        });
+        lat.push(Series {
+            name: format!("{}: WHOLE SWEEP", run.label.to_uppercase()),
+            points: pts(&|l| l.baseline_ms),
+        });
+    }
+    let latency = LinePlot {
+        title: "WORST-CASE LATENCY: SCAN OF A SLICE + ITS INFERENCE".into(),
+        x_label: "SLICES N".into(),
+        y_label: "MS".into(),
+        series: lat,
+        log_x: true,
+        y_range: None,
+    };
+    [by_n, by_flops, latency]
+}
+
+/// Writes `stream.md`, `stream.json` and `stream_ap.png`, `stream_flops.png`,
+/// `stream_latency.png` into `out`.
+pub fn write_stream(out: &Path, runs: &[StreamRun]) -> Result<()> {
+    atomic_write(&out.join("stream.md"), stream_tables(runs).as_bytes())?;
+    let json = serde_json::to_string_pretty(runs).expect("reports serialise");
+    atomic_write(&out.join("stream.json"), json.as_bytes())?;
+    let [ap, flops, lat] = stream_plots(runs);
+    ap.render().save_png(&out.join("stream_ap.png"))?;
+    flops.render().save_png(&out.join("stream_flops.png"))?;
+    lat.render().save_png(&out.join("stream_latency.png"))?;
+    Ok(())
+}

@@ -1,0 +1,443 @@
+//! Streaming a sweep through a model slice by slice, and evaluating it over a split.
+
+use crate::Result;
+use crate::config::ExperimentConfig;
+use crate::eval::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_angle, waymo_ap};
+use crate::train::{Budget, EvalReport, to_kitti, waymo_objects};
+use serde::{Deserialize, Serialize};
+use starnet_data::Point;
+use starnet_data::kitti::{KittiDataset, LabelSource};
+use starnet_data::sampling::{CenterTarget, centers_per_slice, prepare_slice, slice_points, slice_rng};
+use starnet_data::sim::sub_seed;
+use starnet_model::batch::{decode_detections, make_input};
+use starnet_model::flops::forward_gflop;
+use starnet_model::nms::{Detection, StatefulNms, nms};
+use starnet_model::nn::StarNet;
+use std::time::Instant;
+
+/// How the detections of a sweep's slices are merged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NmsMode {
+    /// NMS within each slice only (the paper's "localized receptive field").
+    Localized,
+    /// Each slice's boxes also suppressed by the boxes kept in the previous k slices.
+    Stateful,
+    /// NMS over every slice's boxes once the sweep is complete (not streaming: the reference).
+    Global,
+}
+
+impl NmsMode {
+    /// Every mode, in the paper's order.
+    pub const ALL: [NmsMode; 3] = [NmsMode::Localized, NmsMode::Stateful, NmsMode::Global];
+
+    /// A short name for tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Localized => "localized",
+            Self::Stateful => "stateful NMS",
+            Self::Global => "global NMS",
+        }
+    }
+}
+
+/// One sweep streamed through a model.
+#[derive(Debug, Clone)]
+pub struct StreamedSweep {
+    /// Per-slice NMS, the slices' boxes together.
+    pub localized: Vec<Detection>,
+    /// Stateful NMS, as emitted slice by slice.
+    pub stateful: Vec<Detection>,
+    /// Global NMS over the sweep.
+    pub global: Vec<Detection>,
+    /// Per slice, its boxes after NMS within the slice (what it emits before stateful NMS).
+    pub per_slice: Vec<Vec<Detection>>,
+    /// Per slice, ms from its delivered points to its final boxes: center sampling, gathering,
+    /// forward, decoding and stateful NMS.
+    pub slice_ms: Vec<f64>,
+}
+
+impl StreamedSweep {
+    /// The detections of `mode`.
+    pub fn detections(&self, mode: NmsMode) -> &[Detection] {
+        match mode {
+            NmsMode::Localized => &self.localized,
+            NmsMode::Stateful => &self.stateful,
+            NmsMode::Global => &self.global,
+        }
+    }
+}
+
+/// Detects on one sweep cut into `n` slices, one slice at a time as the sensor would deliver
+/// them: each slice is prepared from its own points (and the previous slice's when
+/// `stream.slicing.gather_previous`), run through the model with the LSTM state of the
+/// sweep's earlier slices (fresh at the sweep's start), decoded and passed through stateful
+/// NMS; `budget.num_centers` are spread over the slices. Slice `s` draws from
+/// [`slice_rng`]`(seed, s)`, so nothing of a later slice reaches it.
+pub fn stream_sweep(
+    model: &StarNet,
+    cfg: &ExperimentConfig,
+    points: &[Point],
+    n: usize,
+    budget: Budget,
+    seed: u64,
+) -> StreamedSweep {
+    let device = starnet_model::backend::default_device();
+    let pipeline = budget.pipeline(&cfg.pipeline);
+    let nms_cfg = cfg.nms_config();
+    let per = centers_per_slice(budget.num_centers, n);
+    // What the sensor delivers; cutting is the sensor's work, not the detector's, so untimed.
+    let slices = slice_points(points, n, &cfg.stream.slicing);
+    let mut stateful = StatefulNms::new(cfg.stream.nms_memory);
+    let mut state = None;
+    let mut out = StreamedSweep {
+        localized: Vec::new(),
+        stateful: Vec::new(),
+        global: Vec::new(),
+        per_slice: Vec::with_capacity(n),
+        slice_ms: Vec::with_capacity(n),
+    };
+    let mut raw_all = Vec::new();
+    for s in 0..n {
+        let start = Instant::now();
+        let previous = (cfg.stream.slicing.gather_previous && s > 0).then(|| slices[s - 1].as_slice());
+        let prepared = prepare_slice(
+            "",
+            &slices[s],
+            previous,
+            (&[], &[]),
+            &pipeline,
+            per,
+            &mut slice_rng(seed, s),
+        );
+        let (output, next) = model.forward_slices(make_input(&[&prepared], &device), 1, state);
+        state = next;
+        let raw = decode_detections(&output, 0, &prepared, &cfg.model.anchors, &nms_cfg);
+        out.stateful.extend(stateful.step(&raw, &nms_cfg));
+        out.slice_ms.push(start.elapsed().as_secs_f64() * 1e3);
+        let local = nms(&raw, &nms_cfg);
+        out.localized.extend_from_slice(&local);
+        out.per_slice.push(local);
+        raw_all.extend(raw);
+    }
+    out.global = nms(&raw_all, &nms_cfg);
+    out
+}
+
+/// The ground truth of a streaming evaluation: per frame id, its labelled objects (with their
+/// LiDAR point counts) within `stream.eval_range`. Computed once, shared by every model and n.
+#[derive(Debug, Clone)]
+pub struct StreamGroundTruth {
+    /// `(frame id, objects)` in split order.
+    pub frames: Vec<(String, Vec<WaymoObject>)>,
+}
+
+impl StreamGroundTruth {
+    /// Reads the first `max_frames` frames of `dataset` (all when `None`).
+    pub fn read(cfg: &ExperimentConfig, dataset: &KittiDataset, max_frames: Option<usize>) -> Result<Self> {
+        let ids = &dataset.ids()[..max_frames.map_or(dataset.ids().len(), |m| m.min(dataset.ids().len()))];
+        let frames = ids
+            .iter()
+            .map(|id| {
+                let frame = dataset.load(id)?;
+                let objects = waymo_objects(&frame)
+                    .into_iter()
+                    .filter(|o| o.b.x.hypot(o.b.y) <= cfg.stream.eval_range)
+                    .collect();
+                Ok((id.clone(), objects))
+            })
+            .collect::<Result<_>>()?;
+        Ok(Self { frames })
+    }
+}
+
+/// The results of one NMS mode.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ModeReport {
+    /// The mode.
+    pub mode: NmsMode,
+    /// Waymo-style AP/APH per class.
+    pub waymo: Vec<WaymoClassAp>,
+    /// LEVEL_1 AP of the first class per subtended angle.
+    pub by_angle: Vec<AngleAp>,
+}
+
+/// A model streamed over a split at one slice count.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct StreamReport {
+    /// Slices per sweep n.
+    pub slices: usize,
+    /// Sweeps evaluated.
+    pub frames: usize,
+    /// Whether the model has the LSTM.
+    pub lstm: bool,
+    /// Centers per sweep (spread over the slices).
+    pub num_centers: usize,
+    /// Centers per slice.
+    pub centers_per_slice: usize,
+    /// Points per center.
+    pub num_points: usize,
+    /// Forward GFLOP of one slice: the peak compute.
+    pub gflop_per_slice: f64,
+    /// Peak compute as a fraction of the whole sweep's in one forward.
+    pub peak_fraction: f64,
+    /// Median per-slice latency, ms (see [`StreamedSweep::slice_ms`]).
+    pub slice_ms_median: f64,
+    /// Mean per-slice latency, ms.
+    pub slice_ms_mean: f64,
+    /// 95th percentile of the per-slice latency, ms.
+    pub slice_ms_p95: f64,
+    /// Mean total over a sweep's slices, ms.
+    pub sweep_ms_mean: f64,
+    /// Per NMS mode, in [`NmsMode::ALL`] order.
+    pub modes: Vec<ModeReport>,
+}
+
+impl StreamReport {
+    /// The results of `mode`.
+    pub fn mode(&self, mode: NmsMode) -> &ModeReport {
+        self.modes
+            .iter()
+            .find(|m| m.mode == mode)
+            .expect("every mode is reported")
+    }
+
+    /// LEVEL_1 AP of class `k` in `mode`.
+    pub fn ap(&self, mode: NmsMode, k: usize) -> f64 {
+        self.mode(mode).waymo.get(k).map_or(0.0, |w| w.levels[0].ap)
+    }
+
+    /// `mode` as an [`EvalReport`] (per sweep: compute and latency summed over the slices), for
+    /// the trainer's evaluations.
+    pub fn eval_report(&self, mode: NmsMode) -> EvalReport {
+        EvalReport {
+            frames: self.frames,
+            num_centers: self.num_centers,
+            num_points: self.num_points,
+            target: CenterTarget::All,
+            gflop_per_frame: self.gflop_per_slice * self.slices as f64,
+            latency_ms_mean: self.sweep_ms_mean,
+            latency_ms_p95: self.slice_ms_p95 * self.slices as f64,
+            classes: Vec::new(),
+            waymo: self.mode(mode).waymo.clone(),
+            by_range: Vec::new(),
+        }
+    }
+}
+
+impl std::fmt::Display for StreamReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "n = {} ({} sweeps, {} x {} points per slice, {:.3} GFLOP = {:.3} of a sweep; slice {:.1} ms median, sweep {:.1} ms):",
+            self.slices,
+            self.frames,
+            self.centers_per_slice,
+            self.num_points,
+            self.gflop_per_slice,
+            self.peak_fraction,
+            self.slice_ms_median,
+            self.sweep_ms_mean
+        )?;
+        for m in &self.modes {
+            write!(f, " {}", m.mode.name())?;
+            for w in &m.waymo {
+                write!(f, " {} {:.2}", w.class, w.levels[0].ap)?;
+            }
+            write!(f, ";")?;
+        }
+        Ok(())
+    }
+}
+
+/// Streams every sweep of `gt` through `model` at `n` slices and scores each NMS mode
+/// (Waymo-style; with camera-view labels only detections inside image 2 count).
+pub fn evaluate_stream(
+    model: &StarNet,
+    cfg: &ExperimentConfig,
+    dataset: &KittiDataset,
+    gt: &StreamGroundTruth,
+    budget: Budget,
+    n: usize,
+) -> Result<StreamReport> {
+    let camera_view = dataset.labels() == LabelSource::Camera;
+    let mut frames: [Vec<WaymoFrame>; 3] = Default::default();
+    let mut slice_ms = Vec::new();
+    let mut sweep_ms = Vec::new();
+    for (i, (id, objects)) in gt.frames.iter().enumerate() {
+        let frame = dataset.load(id)?;
+        let streamed = stream_sweep(model, cfg, &frame.points, n, budget, sub_seed(cfg.seed, 23, i as u64));
+        sweep_ms.push(streamed.slice_ms.iter().sum::<f64>());
+        slice_ms.extend_from_slice(&streamed.slice_ms);
+        for (k, mode) in NmsMode::ALL.iter().enumerate() {
+            let detections = streamed
+                .detections(*mode)
+                .iter()
+                .filter(|d| d.b.x.hypot(d.b.y) <= cfg.stream.eval_range)
+                .filter(|d| !camera_view || to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size).is_some())
+                .map(|d| WaymoDetection {
+                    class: cfg.data.classes[d.class],
+                    b: d.b,
+                    score: d.score,
+                })
+                .collect();
+            frames[k].push(WaymoFrame {
+                objects: objects.clone(),
+                detections,
+            });
+        }
+    }
+    let model_cfg = cfg.model_config();
+    let per = centers_per_slice(budget.num_centers, n);
+    let gflop = forward_gflop(&model_cfg, per, budget.num_points);
+    let full = forward_gflop(&model_cfg, budget.num_centers, budget.num_points);
+    slice_ms.sort_by(f64::total_cmp);
+    let quantile = |q: f64| {
+        slice_ms
+            .get(((slice_ms.len() as f64 * q) as usize).min(slice_ms.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(0.0)
+    };
+    Ok(StreamReport {
+        slices: n,
+        frames: gt.frames.len(),
+        lstm: model.has_lstm(),
+        num_centers: budget.num_centers,
+        centers_per_slice: per,
+        num_points: budget.num_points,
+        gflop_per_slice: gflop,
+        peak_fraction: gflop / full,
+        slice_ms_median: quantile(0.5),
+        slice_ms_mean: slice_ms.iter().sum::<f64>() / slice_ms.len().max(1) as f64,
+        slice_ms_p95: quantile(0.95),
+        sweep_ms_mean: sweep_ms.iter().sum::<f64>() / sweep_ms.len().max(1) as f64,
+        modes: NmsMode::ALL
+            .iter()
+            .zip(&frames)
+            .map(|(&mode, f)| ModeReport {
+                mode,
+                waymo: waymo_ap(f, &cfg.data.classes),
+                by_angle: ap_by_angle(f, cfg.data.classes[0]),
+            })
+            .collect(),
+    })
+}
+
+/// A model to stream: a name, the model and its run's config.
+pub struct StreamModel<'a> {
+    /// Its name in tables (e.g. the run folder).
+    pub label: String,
+    /// The model.
+    pub model: &'a StarNet,
+    /// Its config (slicing, NMS, anchors, classes).
+    pub config: &'a ExperimentConfig,
+    /// Its budget per sweep.
+    pub budget: Budget,
+}
+
+/// Streams every model over `gt`'s sweeps at each of `slices` (n = 1, the whole-sweep
+/// reference, is added first when absent), calling `on_report` after each.
+pub fn stream_runs(
+    models: &[StreamModel<'_>],
+    dataset: &KittiDataset,
+    gt: &StreamGroundTruth,
+    slices: &[usize],
+    on_report: &mut dyn FnMut(&str, &StreamReport),
+) -> Result<Vec<super::StreamRun>> {
+    let mut ns: Vec<usize> = slices.to_vec();
+    ns.push(1);
+    ns.sort_unstable();
+    ns.dedup();
+    models
+        .iter()
+        .map(|m| {
+            let reports = ns
+                .iter()
+                .map(|&n| {
+                    let r = evaluate_stream(m.model, m.config, dataset, gt, m.budget, n)?;
+                    on_report(&m.label, &r);
+                    Ok(r)
+                })
+                .collect::<Result<Vec<_>>>()?;
+            Ok(super::StreamRun {
+                label: m.label.clone(),
+                classes: m.config.data.classes.clone(),
+                scan_hz: m.config.stream.scan_hz,
+                reports,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use starnet_data::sampling::{CenterPoolConfig, SliceConfig};
+
+    fn sweep(n: usize) -> Vec<Point> {
+        (0..n)
+            .map(|i| {
+                let a = i as f32 * 2.399; // golden-angle spiral: every azimuth, ranges 3–40 m
+                let r = 3.0 + 37.0 * ((i * 7919) % n) as f32 / n as f32;
+                [r * a.cos(), r * a.sin(), -1.0 + (i % 5) as f32 * 0.3, 0.2]
+            })
+            .collect()
+    }
+
+    fn config() -> ExperimentConfig {
+        let mut cfg = ExperimentConfig::default();
+        cfg.model.blocks = vec![[16, 8]];
+        cfg.model.d_fc0 = 8;
+        cfg.model.d_offset = 8;
+        cfg.model.lstm_hidden = 8;
+        cfg.pipeline.pool = CenterPoolConfig::all_around(50.0);
+        cfg.pipeline.gather.num_points = 8;
+        // Keep every box so the comparison is not vacuous.
+        cfg.nms.score = vec![0.0];
+        cfg
+    }
+
+    #[test]
+    fn no_slice_reads_a_later_slice() {
+        let cfg = config();
+        let model = cfg.model_config().init(&starnet_model::backend::default_device());
+        let budget = Budget {
+            num_centers: 24,
+            num_points: 8,
+            target: CenterTarget::All,
+        };
+        for gather_previous in [false, true] {
+            let mut cfg = cfg.clone();
+            cfg.stream.slicing = SliceConfig {
+                gather_previous,
+                ..SliceConfig::default()
+            };
+            let points = sweep(3000);
+            let base = stream_sweep(&model, &cfg, &points, 6, budget, 5);
+            assert!(base.per_slice.iter().all(|d| !d.is_empty()));
+            // Change every point of slices 3–5 (and drop some): slices 0–2 must not notice,
+            // LSTM state included.
+            let later = |p: &Point| cfg.stream.slicing.slice_of(p[0], p[1], 6) >= 3;
+            let changed: Vec<Point> = points
+                .iter()
+                .enumerate()
+                .filter(|(i, p)| !later(p) || i % 3 != 0)
+                .map(|(_, p)| {
+                    if later(p) {
+                        [p[0] * 1.1, p[1], p[2] + 0.5, 0.9]
+                    } else {
+                        *p
+                    }
+                })
+                .collect();
+            let other = stream_sweep(&model, &cfg, &changed, 6, budget, 5);
+            assert_eq!(&other.per_slice[..3], &base.per_slice[..3]);
+            assert_ne!(&other.per_slice[3..], &base.per_slice[3..]);
+            // A sweep starts from a fresh state: streaming it again gives the same boxes.
+            assert_eq!(
+                stream_sweep(&model, &cfg, &points, 6, budget, 5).per_slice,
+                base.per_slice
+            );
+        }
+    }
+}

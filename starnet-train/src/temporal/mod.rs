@@ -1,0 +1,15 @@
+//! Temporal context (StarNet §4.4, table 4): on a sequence, the last K of frame t's N
+//! farthest-point centers are replaced by the K best detections of frame t − 1, moved into
+//! frame t by the relative ego pose; FPS then continues from them. The compute stays that of N
+//! centers; the centers go where objects were. `starnet eval --sequences` runs
+//! [`evaluate_sequences`] over a grid of (N, K) and writes [`write_temporal`]'s table and plot.
+
+mod run;
+mod seeds;
+mod sequence;
+
+pub use run::{
+    SEED_MIN_SCORE, TemporalReport, evaluate_sequences, seeded_centers, temporal_plot, temporal_table, write_temporal,
+};
+pub use seeds::{PrevCenters, SeedStats, seed_distances, snap_seeds, temporal_seeds};
+pub use sequence::{Sequence, open_sequences};

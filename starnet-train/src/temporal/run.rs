@@ -1,0 +1,376 @@
+//! Sequence evaluation with temporal seeding, its table and plot.
+
+use super::seeds::{PrevCenters, SeedStats, seed_distances, snap_seeds, temporal_seeds};
+use super::sequence::Sequence;
+use crate::Result;
+use crate::config::ExperimentConfig;
+use crate::render::{LinePlot, Series};
+use crate::train::{Budget, EvalReport, Scorer, frame_seed};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use starnet_data::Box3d;
+use starnet_data::geometry::Pose;
+use starnet_data::io::atomic_write;
+use starnet_data::kitti::Frame;
+use starnet_data::sampling::{Centers, PipelineConfig, PreparedFrame, center_pool, prepare_frame};
+use starnet_model::batch::{decode_detections, make_input};
+use starnet_model::nms::{Detection, NmsConfig, nms};
+use starnet_model::nn::StarNet;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+/// Detections down to this score may seed the next frame (the paper takes the K best, and K
+/// reaches hundreds: far more than pass the final score threshold).
+pub const SEED_MIN_SCORE: f32 = 0.05;
+
+/// The boxes that may seed the next frame: NMS over the best few thousand raw boxes.
+fn seed_candidates(mut raw: Vec<Detection>, cfg: &NmsConfig) -> Vec<Detection> {
+    raw.sort_by(|a, b| b.score.total_cmp(&a.score));
+    raw.truncate(4096);
+    nms(&raw, cfg)
+}
+
+/// One (N, K) evaluation over the sequences.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TemporalReport {
+    /// Centers per frame N.
+    pub num_centers: usize,
+    /// How K was asked for.
+    pub prev: PrevCenters,
+    /// K: centers taken from the previous frame's detections (fewer when it had fewer).
+    pub prev_centers: usize,
+    /// The evaluation (every frame of every sequence; the first frames have no seeds).
+    pub report: EvalReport,
+    /// Where the seeds landed.
+    pub seeds: SeedStats,
+}
+
+/// Runs every sequence frame by frame: frame t's first K centers are the K best detections of
+/// frame t − 1 (after NMS, scores down to [`SEED_MIN_SCORE`]) moved into frame t
+/// (`Pose::between` the two poses) and snapped to the nearest candidate center within the
+/// gathering radius ([`snap_seeds`]), and FPS continues from them up to `budget.num_centers`;
+/// the first frame of a sequence has no seeds. Frame `i`
+/// (counting through the sequences) samples from `frame_seed(cfg, i)`, as [`crate::train::evaluate`]
+/// does, so K = 0 reproduces it.
+pub fn evaluate_sequences(
+    model: &StarNet,
+    cfg: &ExperimentConfig,
+    sequences: &[Sequence],
+    budget: Budget,
+    prev: PrevCenters,
+) -> Result<TemporalReport> {
+    let step = SeededStep::new(cfg, budget, prev);
+    let labels = sequences.first().map(|s| s.dataset.labels()).unwrap_or(cfg.data.labels);
+    let mut scorer = Scorer::new(cfg, labels, None);
+    let (mut corrected, mut uncorrected, mut confident) = (Vec::new(), Vec::new(), Vec::new());
+    let mut i = 0;
+    for seq in sequences {
+        let mut previous: Vec<Detection> = Vec::new();
+        for (t, id) in seq.dataset.ids().iter().enumerate() {
+            let frame = seq.dataset.load(id)?;
+            let start = Instant::now();
+            let moved = match t {
+                0 => Vec::new(),
+                _ => temporal_seeds(&previous, step.k, &Pose::between(&seq.poses[t - 1], &seq.poses[t])),
+            };
+            let (prepared, detections, candidates) = step.run(model, &frame, &moved, frame_seed(cfg, i));
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            if !moved.is_empty() {
+                let objects: Vec<Box3d> = prepared
+                    .boxes
+                    .iter()
+                    .zip(&prepared.classes)
+                    .filter(|(_, c)| cfg.data.classes.contains(c))
+                    .map(|(b, _)| *b)
+                    .collect();
+                corrected.extend(seed_distances(&moved, &objects));
+                let unmoved = temporal_seeds(&previous, step.k, &Pose::IDENTITY);
+                uncorrected.extend(seed_distances(&unmoved, &objects));
+                // `previous` is sorted best first, as the seeds are.
+                confident.extend(
+                    previous
+                        .iter()
+                        .take(moved.len())
+                        .map(|d| d.score >= step.nms.per_class[d.class].score),
+                );
+            }
+            previous = candidates;
+            scorer.add(frame, &detections, ms)?;
+            i += 1;
+        }
+    }
+    Ok(TemporalReport {
+        num_centers: budget.num_centers,
+        prev,
+        prev_centers: step.k,
+        report: scorer.finish(budget),
+        seeds: SeedStats::of(&corrected, &uncorrected, &confident),
+    })
+}
+
+/// The centers frame `t` of `seq` gets at `budget` with `prev` from frame t − 1: frame t − 1 is
+/// detected with plain FPS (as the first frame of a run would be), its seeds moved and snapped
+/// into frame t, and frame t's centers sampled from them (`Centers::num_seeded` lead).
+pub fn seeded_centers(
+    model: &StarNet,
+    cfg: &ExperimentConfig,
+    seq: &Sequence,
+    t: usize,
+    budget: Budget,
+    prev: PrevCenters,
+) -> Result<Centers> {
+    let step = SeededStep::new(cfg, budget, prev);
+    let ids = seq.dataset.ids();
+    let moved = if t == 0 {
+        Vec::new()
+    } else {
+        let before = seq.dataset.load(&ids[t - 1])?;
+        let (_, _, candidates) = step.run(model, &before, &[], frame_seed(cfg, t - 1));
+        temporal_seeds(&candidates, step.k, &Pose::between(&seq.poses[t - 1], &seq.poses[t]))
+    };
+    let frame = seq.dataset.load(&ids[t])?;
+    Ok(step.run(model, &frame, &moved, frame_seed(cfg, t)).0.centers)
+}
+
+/// One frame of a seeded run: settings resolved once.
+struct SeededStep<'a> {
+    cfg: &'a ExperimentConfig,
+    pipeline: PipelineConfig,
+    nms: NmsConfig,
+    /// The final NMS at the seeds' score bar, keeping K boxes.
+    seed_nms: NmsConfig,
+    k: usize,
+}
+
+impl<'a> SeededStep<'a> {
+    fn new(cfg: &'a ExperimentConfig, budget: Budget, prev: PrevCenters) -> Self {
+        let nms = cfg.nms_config();
+        let k = prev.of(budget.num_centers);
+        let mut seed_nms = nms.clone();
+        for c in &mut seed_nms.per_class {
+            c.score = c.score.min(SEED_MIN_SCORE);
+        }
+        seed_nms.max_boxes = k.max(1);
+        Self {
+            cfg,
+            pipeline: budget.pipeline(&cfg.pipeline),
+            nms,
+            seed_nms,
+            k,
+        }
+    }
+
+    /// Snaps the `moved` seeds onto the frame, samples centers from them and detects: the
+    /// prepared frame, its detections and the next frame's seed candidates.
+    fn run(
+        &self,
+        model: &StarNet,
+        frame: &Frame,
+        moved: &[[f32; 3]],
+        seed: u64,
+    ) -> (PreparedFrame, Vec<Detection>, Vec<Detection>) {
+        let seeds = if moved.is_empty() {
+            Vec::new()
+        } else {
+            let pool = center_pool(
+                &frame.points,
+                &self.pipeline.pool,
+                Some((&frame.calib, frame.image_size)),
+            );
+            snap_seeds(moved, &frame.points, &pool, self.pipeline.gather.radius)
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let prepared = prepare_frame(frame, &self.pipeline, None, &seeds, &mut rng);
+        let device = starnet_model::backend::default_device();
+        let out = model.forward(make_input(&[&prepared], &device));
+        // One decoding at the seeds' lower score bar serves both: `nms` applies each config's
+        // own threshold, so the detections are exactly `decode_frame`'s.
+        let raw = decode_detections(&out, 0, &prepared, &self.cfg.model.anchors, &self.seed_nms);
+        let detections = nms(&raw, &self.nms);
+        let candidates = if self.k > 0 {
+            seed_candidates(raw, &self.seed_nms)
+        } else {
+            Vec::new()
+        };
+        (prepared, detections, candidates)
+    }
+}
+
+/// The markdown table: per (N, K) the headline AP, its change from K = 0 at the same N, and
+/// where the seeds landed.
+pub fn temporal_table(reports: &[TemporalReport]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| centers N | from t − 1 K | FPS | headline AP | BEV AP | Δ vs K = 0 | seeds | within 1 m of an object | confident seeds | their median distance m | without pose correction m |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    for (i, r) in reports.iter().enumerate() {
+        // A run asked for twice (`32` and `50%` of 64) is listed once.
+        if reports[..i]
+            .iter()
+            .any(|q| (q.num_centers, q.prev_centers) == (r.num_centers, r.prev_centers))
+        {
+            continue;
+        }
+        let base = reports
+            .iter()
+            .find(|b| b.num_centers == r.num_centers && b.prev_centers == 0)
+            .map(|b| b.report.headline());
+        let delta = base.map_or("".to_string(), |b| format!("{:+.1}", r.report.headline() - b));
+        let bev = r.report.classes.first().map_or(0.0, |c| c.bev[1].r40);
+        let seeds = if r.seeds.seeds > 0 {
+            format!(
+                "{} | {:.0} % | {} | {:.2} | {:.2}",
+                r.seeds.seeds,
+                100.0 * r.seeds.within_1m,
+                r.seeds.confident,
+                r.seeds.median_m,
+                r.seeds.uncorrected_median_m
+            )
+        } else {
+            "0 | | | |".to_string()
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.1} | {:.1} | {delta} | {seeds} |",
+            r.num_centers,
+            r.prev_centers,
+            r.num_centers - r.prev_centers,
+            r.report.headline(),
+            bev
+        );
+    }
+    s
+}
+
+/// Headline AP against total centers, one curve per way of choosing K.
+pub fn temporal_plot(reports: &[TemporalReport]) -> LinePlot {
+    let mut kinds: Vec<PrevCenters> = Vec::new();
+    for r in reports {
+        if !kinds.contains(&r.prev) {
+            kinds.push(r.prev);
+        }
+    }
+    let series = kinds
+        .iter()
+        .map(|&p| {
+            let mut points: Vec<(f64, f64)> = reports
+                .iter()
+                .filter(|r| r.prev == p)
+                .map(|r| (r.num_centers as f64, r.report.headline()))
+                .collect();
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let name = match p {
+                PrevCenters::Count(0) | PrevCenters::Percent(0) => "FPS ONLY".to_string(),
+                p => format!("{p} FROM FRAME T-1"),
+            };
+            Series { name, points }
+        })
+        .collect();
+    LinePlot {
+        title: "TEMPORAL CONTEXT: AP VS TOTAL CENTERS, WITH AND WITHOUT PREVIOUS-FRAME SEEDS".into(),
+        x_label: "CENTERS PER FRAME".into(),
+        y_label: "HEADLINE AP (%)".into(),
+        series,
+        log_x: true,
+        y_range: None,
+    }
+}
+
+/// Writes `temporal.md`, `temporal.json` and `temporal_ap.png` into `out`.
+pub fn write_temporal(out: &Path, reports: &[TemporalReport]) -> Result<()> {
+    atomic_write(&out.join("temporal.md"), temporal_table(reports).as_bytes())?;
+    let json = serde_json::to_string_pretty(reports).expect("reports serialise");
+    atomic_write(&out.join("temporal.json"), json.as_bytes())?;
+    temporal_plot(reports).render().save_png(&out.join("temporal_ap.png"))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use starnet_data::kitti::{Calib, ImageSize};
+    use starnet_data::sim::{SynthConfig, simulate_scene_frame};
+    use starnet_model::batch::decode_frame;
+
+    fn frame() -> Frame {
+        let calib = Calib::kitti_000000();
+        let sim = simulate_scene_frame(3, 0, &SynthConfig::default(), &calib);
+        Frame {
+            id: "000000".into(),
+            points: sim.points,
+            objects: sim.labels,
+            calib,
+            image_size: ImageSize::KITTI,
+        }
+    }
+
+    fn setup() -> (ExperimentConfig, StarNet, Budget) {
+        let mut cfg = ExperimentConfig::default();
+        cfg.model.blocks = vec![[16, 8]];
+        cfg.model.d_fc0 = 8;
+        cfg.model.d_offset = 8;
+        // Keep every box, so comparing detections is not vacuous.
+        cfg.nms.score = vec![0.0];
+        let model = cfg.model_config().init(&starnet_model::backend::default_device());
+        let budget = Budget {
+            num_centers: 24,
+            num_points: 16,
+            target: starnet_data::sampling::CenterTarget::All,
+        };
+        (cfg, model, budget)
+    }
+
+    #[test]
+    fn without_seeds_a_step_is_plain_fps_evaluation() {
+        let (cfg, model, budget) = setup();
+        let f = frame();
+        let (prepared, dets, candidates) = SeededStep::new(&cfg, budget, PrevCenters::Count(0)).run(&model, &f, &[], 9);
+        // What `evaluate` does with frame seed 9.
+        let pipeline = budget.pipeline(&cfg.pipeline);
+        let plain = prepare_frame(&f, &pipeline, None, &[], &mut ChaCha8Rng::seed_from_u64(9));
+        let out = model.forward(make_input(&[&plain], &starnet_model::backend::default_device()));
+        let expected = decode_frame(&out, 0, &plain, &cfg.model.anchors, &cfg.nms_config());
+        assert_eq!(prepared.centers, plain.centers);
+        assert!(!expected.is_empty());
+        assert_eq!(dets, expected);
+        assert!(candidates.is_empty());
+        // 0 % is K = 0 too.
+        let pct = SeededStep::new(&cfg, budget, PrevCenters::Percent(0)).run(&model, &f, &[], 9);
+        assert_eq!(pct.1, expected);
+    }
+
+    #[test]
+    fn seeds_lead_the_centers_snapped_onto_candidate_points() {
+        let (cfg, model, budget) = setup();
+        let f = frame();
+        let step = SeededStep::new(&cfg, budget, PrevCenters::Count(3));
+        // Three positions in front of the sensor, and one far from any point (kept as is).
+        let moved = [[12.0, 1.0, -1.0], [20.0, -4.0, -1.0], [35.0, 6.0, -1.0]];
+        let (prepared, _, candidates) = step.run(&model, &f, &moved, 4);
+        let c = &prepared.centers;
+        assert_eq!((c.len(), c.num_seeded), (24, 3));
+        let pool = center_pool(&f.points, &cfg.pipeline.pool, Some((&f.calib, f.image_size)));
+        let snapped = snap_seeds(&moved, &f.points, &pool, cfg.pipeline.gather.radius);
+        for (center, (s, m)) in c.xyz.iter().zip(snapped.iter().zip(&moved)) {
+            assert_eq!([center[0], center[1]], [s[0], s[1]]);
+            assert_eq!(center[2], 0.0, "centers take z = 0 as configured");
+            let d = (s[0] - m[0]).hypot(s[1] - m[1]);
+            assert!(d <= cfg.pipeline.gather.radius);
+            // A snapped seed is a pool point, and no pool point is closer to the seed.
+            if d > 0.0 {
+                assert!(pool.iter().any(|&i| f.points[i][0] == s[0] && f.points[i][1] == s[1]));
+                assert!(
+                    pool.iter()
+                        .all(|&i| (f.points[i][0] - m[0]).hypot(f.points[i][1] - m[1]) >= d)
+                );
+            }
+        }
+        // With K = 3, the next frame's candidates are the 3 best boxes after NMS.
+        assert_eq!(candidates.len(), 3);
+        assert!(candidates.windows(2).all(|w| w[0].score >= w[1].score));
+    }
+}
