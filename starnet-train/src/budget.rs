@@ -144,14 +144,17 @@ pub fn write_sweep(out: &Path, reports: &[EvalReport]) -> Result<()> {
 
 /// Redraws a sweep's table and plots from its `budget.json` (e.g. after a plotting change).
 pub fn replot_sweep(dir: &Path) -> Result<()> {
-    let path = dir.join("budget.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| starnet_data::DataError::io(&path, e))?;
-    let reports: Vec<EvalReport> = serde_json::from_str(&text).map_err(|e| crate::TrainError::Log {
-        path: path.clone(),
+    write_sweep(dir, &read_json::<Vec<EvalReport>>(&dir.join("budget.json"))?)
+}
+
+/// Reads a JSON file the commands wrote; errors name the file and line.
+pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
+    let text = std::fs::read_to_string(path).map_err(|e| starnet_data::DataError::io(path, e))?;
+    serde_json::from_str(&text).map_err(|e| crate::TrainError::Log {
+        path: path.to_path_buf(),
         line: e.line(),
         message: e.to_string(),
-    })?;
-    write_sweep(dir, &reports)
+    })
 }
 
 #[cfg(test)]

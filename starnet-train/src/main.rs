@@ -11,11 +11,11 @@ use starnet_train::curves::plot_run;
 use starnet_train::inspect::inspect_frame;
 use starnet_train::prepare::run_prepare;
 use starnet_train::render::{BevOptions, RenderOptions, render_frame};
-use starnet_train::stream::{StreamGroundTruth, StreamModel, stream_runs, stream_tables, write_stream};
+use starnet_train::stream::{StreamGroundTruth, StreamModel, replot_stream, stream_runs, stream_tables, write_stream};
 use starnet_train::synth::{SynthJob, run_stats, run_synth};
 use starnet_train::temporal::{
-    PrevCenters, Sequence, TemporalReport, evaluate_sequences, open_sequences, seeded_centers, temporal_table,
-    write_temporal,
+    PrevCenters, Sequence, TemporalReport, evaluate_sequences, open_sequences, replot_temporal, seeded_centers,
+    temporal_table, write_temporal,
 };
 use starnet_train::train::{Budget, TrainOptions, load_model, run_dir_for, train};
 use std::path::PathBuf;
@@ -266,7 +266,8 @@ enum Command {
         /// The run folder (holding log.jsonl).
         #[arg(long, required_unless_present = "budget", conflicts_with = "budget")]
         run: Option<PathBuf>,
-        /// An `eval --out` folder holding budget.json.
+        /// An `eval --out` or `stream-eval --out` folder: redraws its tables and plots from the
+        /// budget.json, temporal.json or stream.json it holds.
         #[arg(long)]
         budget: Option<PathBuf>,
         /// Output folder for the training curves (default: the run folder).
@@ -575,8 +576,26 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Plot { run, budget, out } => {
             if let Some(dir) = budget {
-                replot_sweep(&dir)?;
-                println!("wrote {}/budget.md and the budget_*.png plots", dir.display());
+                let mut found = false;
+                for (file, replot) in [
+                    (
+                        "budget.json",
+                        replot_sweep as fn(&std::path::Path) -> starnet_train::Result<()>,
+                    ),
+                    ("temporal.json", replot_temporal),
+                    ("stream.json", replot_stream),
+                ] {
+                    if dir.join(file).is_file() {
+                        replot(&dir)?;
+                        println!("redrew {} from {file}", dir.display());
+                        found = true;
+                    }
+                }
+                anyhow::ensure!(
+                    found,
+                    "{} holds no budget.json, temporal.json or stream.json",
+                    dir.display()
+                );
             }
             if let Some(run) = run {
                 for path in plot_run(&run, out.as_deref())? {

@@ -168,7 +168,9 @@ impl LinePlot {
             }
             // Bottom right: curves of coverage and accuracy climb towards the top right.
             let ly = (TOP + ph) as i64 - 12 - 24 * (self.series.len() - k) as i64;
-            let lx = (LEFT + pw) as i64 - 220;
+            // Wide enough for the longest name (12 px per character at scale 2).
+            let longest = self.series.iter().map(|s| s.name.chars().count()).max().unwrap_or(0);
+            let lx = (LEFT + pw) as i64 - (44 + 12 * longest as i64).max(220);
             c.fill_rect(lx, ly + 3, lx + 24, ly + 9, colour);
             c.text(lx + 32, ly, &s.name, INK, 2);
         }

@@ -7,7 +7,7 @@
 mod report;
 mod run;
 
-pub use report::{Latency, StreamRun, latency, stream_plots, stream_tables, write_stream};
+pub use report::{Latency, StreamRun, latency, replot_stream, stream_plots, stream_tables, write_stream};
 pub use run::{
     ModeReport, NmsMode, StreamGroundTruth, StreamModel, StreamReport, StreamedSweep, evaluate_stream, stream_runs,
     stream_sweep,

@@ -248,3 +248,11 @@ pub fn write_stream(out: &Path, runs: &[StreamRun]) -> Result<()> {
     lat.render().save_png(&out.join("stream_latency.png"))?;
     Ok(())
 }
+
+/// Redraws `stream.md` and the plots from a folder's `stream.json`.
+pub fn replot_stream(dir: &Path) -> Result<()> {
+    write_stream(
+        dir,
+        &crate::budget::read_json::<Vec<StreamRun>>(&dir.join("stream.json"))?,
+    )
+}

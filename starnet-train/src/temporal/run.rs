@@ -271,7 +271,7 @@ pub fn temporal_plot(reports: &[TemporalReport]) -> LinePlot {
         })
         .collect();
     LinePlot {
-        title: "TEMPORAL CONTEXT: AP VS TOTAL CENTERS, WITH AND WITHOUT PREVIOUS-FRAME SEEDS".into(),
+        title: "AP VS CENTERS, WITH AND WITHOUT SEEDS FROM FRAME T-1".into(),
         x_label: "CENTERS PER FRAME".into(),
         y_label: "HEADLINE AP (%)".into(),
         series,
@@ -373,4 +373,12 @@ mod tests {
         assert_eq!(candidates.len(), 3);
         assert!(candidates.windows(2).all(|w| w[0].score >= w[1].score));
     }
+}
+
+/// Redraws `temporal.md` and `temporal_ap.png` from a folder's `temporal.json`.
+pub fn replot_temporal(dir: &Path) -> Result<()> {
+    write_temporal(
+        dir,
+        &crate::budget::read_json::<Vec<TemporalReport>>(&dir.join("temporal.json"))?,
+    )
 }

@@ -4,6 +4,9 @@
 //! scalar; checkpoints at every epoch (and on Ctrl-C) that `--resume` continues bit for bit;
 //! evaluation on the validation split (with the EMA weights), keeping the best checkpoint.
 //!
+//! A streaming config (`stream.train_slices`) cuts every sweep of a step into the same drawn
+//! number of slices and runs them as one sequence (through the LSTM, when the model has one).
+//!
 //! Determinism: the data order is a function of (seed, epoch) and item `k`'s randomness of
 //! (seed, k), so a resumed run sees exactly the items the uninterrupted one would have.
 
@@ -96,7 +99,7 @@ pub fn slices_at(cfg: &ExperimentConfig, step: u64) -> Option<usize> {
 
 /// The validation of a run: [`evaluate`] at the config's budget, or for a streaming config
 /// (sliced training or an LSTM) the streamed evaluation at `stream.eval_slices` with stateful
-/// NMS.
+/// NMS (which writes no result files).
 pub fn validate(
     model: &StarNet,
     cfg: &ExperimentConfig,
