@@ -289,6 +289,14 @@ pub fn write_temporal(out: &Path, reports: &[TemporalReport]) -> Result<()> {
     Ok(())
 }
 
+/// Redraws `temporal.md` and `temporal_ap.png` from a folder's `temporal.json`.
+pub fn replot_temporal(dir: &Path) -> Result<()> {
+    write_temporal(
+        dir,
+        &crate::budget::read_json::<Vec<TemporalReport>>(&dir.join("temporal.json"))?,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -373,12 +381,4 @@ mod tests {
         assert_eq!(candidates.len(), 3);
         assert!(candidates.windows(2).all(|w| w[0].score >= w[1].score));
     }
-}
-
-/// Redraws `temporal.md` and `temporal_ap.png` from a folder's `temporal.json`.
-pub fn replot_temporal(dir: &Path) -> Result<()> {
-    write_temporal(
-        dir,
-        &crate::budget::read_json::<Vec<TemporalReport>>(&dir.join("temporal.json"))?,
-    )
 }
