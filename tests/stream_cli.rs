@@ -1,67 +1,36 @@
 //! Streaming end to end: a tiny localized model and a tiny LSTM model trained on slices of
 //! simulated 360° sweeps, then `starnet stream-eval` over several slice counts (seconds).
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-const TINY: &str = r#"
+use common::{TINY_CAR, ok, starnet};
+
+/// The streaming settings over `common::TINY_CAR`.
+const STREAM: &str = r#"
+base = "tiny.toml"
 seed = 5
 [data]
-root = "DATA"
-simulate_frames = 8
-classes = ["Car"]
 labels = "label_360"
-[pipeline]
-num_centers = 32
 [pipeline.pool]
 x_range = [-40.0, 40.0]
 y_range = [-40.0, 40.0]
 camera_frustum = false
-[pipeline.gather]
-num_points = 8
-radius = 2.0
-[model]
-d_fc0 = 8
-blocks = [[16, 8]]
-d_offset = 8
-[nms]
-iou = [0.1]
-score = [0.0]
 [stream]
 train_slices = [1, 2, 4]
 eval_slices = 4
 eval_range = 40.0
-[train]
-epochs = 1
-batch_size = 2
-workers = 1
-[eval]
-num_centers = 32
-num_points = 8
 "#;
-
-fn starnet(args: &[&str], cwd: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_starnet"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .unwrap()
-}
-
-fn ok(o: &std::process::Output) -> String {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
 #[test]
 fn train_on_slices_then_stream_eval() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(
-        d.join("s.toml"),
-        TINY.replace("DATA", &d.join("data").display().to_string()),
+        d.join("tiny.toml"),
+        TINY_CAR.replace("DATA", &d.join("data").display().to_string()),
     )
     .unwrap();
+    std::fs::write(d.join("s.toml"), STREAM).unwrap();
     std::fs::write(d.join("s-lstm.toml"), "base = \"s.toml\"\n[model]\nlstm_hidden = 8\n").unwrap();
     for cfg in ["s.toml", "s-lstm.toml"] {
         let out = ok(&starnet(&["train", "--config", cfg], d));

@@ -1,48 +1,9 @@
 //! Temporal seeding end to end: a tiny camera-view model, simulated sequences, `starnet eval
 //! --sequences` over a (centers, previous-frame centers) grid, and a render of the seeds.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
 
-const TINY: &str = r#"
-seed = 2
-[data]
-root = "DATA"
-simulate_frames = 8
-classes = ["Car"]
-[pipeline]
-num_centers = 32
-[pipeline.gather]
-num_points = 8
-radius = 2.0
-[model]
-d_fc0 = 8
-blocks = [[16, 8]]
-d_offset = 8
-[nms]
-iou = [0.1]
-score = [0.0]
-[train]
-epochs = 1
-batch_size = 2
-workers = 1
-[eval]
-num_centers = 32
-num_points = 8
-"#;
-
-fn starnet(args: &[&str], cwd: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_starnet"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .unwrap()
-}
-
-fn ok(o: &std::process::Output) -> String {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+use common::{TINY_CAR, ok, starnet};
 
 #[test]
 fn sequences_with_previous_frame_centers() {
@@ -50,7 +11,7 @@ fn sequences_with_previous_frame_centers() {
     let d = dir.path();
     std::fs::write(
         d.join("t.toml"),
-        TINY.replace("DATA", &d.join("data").display().to_string()),
+        TINY_CAR.replace("DATA", &d.join("data").display().to_string()),
     )
     .unwrap();
     ok(&starnet(&["train", "--config", "t.toml"], d));
@@ -105,53 +66,37 @@ fn sequences_with_previous_frame_centers() {
             .unwrap()
             .starts_with(b"\x89PNG")
     );
-    // The render shows the seeded centers in their own colour.
-    ok(&starnet(
-        &[
-            "render",
-            "--data",
-            "seq/sequences/0000",
-            "--frame",
-            "000001",
-            "--checkpoint",
-            &ckpt,
-            "--prev-centers",
-            "50%",
-            "--centers",
-            "fps:16",
-            "--out",
-            "seeded.png",
-        ],
-        d,
-    ));
-    let decoder = png::Decoder::new(std::io::BufReader::new(
-        std::fs::File::open(d.join("seeded.png")).unwrap(),
-    ));
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    let seeded = buf[..info.buffer_size()]
-        .chunks(3)
-        .filter(|p| *p == starnet_train::render::SEEDED)
-        .count();
-    assert!(seeded > 0, "no seeded center drawn");
-    // Without a previous frame (frame 0) nothing is seeded.
-    ok(&starnet(
-        &[
-            "render",
-            "--data",
-            "seq/sequences/0000",
-            "--frame",
-            "000000",
-            "--checkpoint",
-            &ckpt,
-            "--prev-centers",
-            "50%",
-            "--centers",
-            "fps:16",
-            "--out",
-            "first.png",
-        ],
-        d,
-    ));
+    // The render shows the seeded centers in their own colour; frame 0 has no previous frame,
+    // so nothing is seeded there.
+    let seeded_pixels = |frame: &str| {
+        let png_path = format!("seeded-{frame}.png");
+        ok(&starnet(
+            &[
+                "render",
+                "--data",
+                "seq/sequences/0000",
+                "--frame",
+                frame,
+                "--checkpoint",
+                &ckpt,
+                "--prev-centers",
+                "50%",
+                "--centers",
+                "fps:16",
+                "--out",
+                &png_path,
+            ],
+            d,
+        ));
+        let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(d.join(&png_path)).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        buf[..info.buffer_size()]
+            .chunks(3)
+            .filter(|p| *p == starnet_train::render::SEEDED)
+            .count()
+    };
+    assert!(seeded_pixels("000001") > 0, "no seeded center drawn");
+    assert_eq!(seeded_pixels("000000"), 0, "frame 0 has no previous frame to seed from");
 }

@@ -2,12 +2,13 @@
 
 mod common;
 
+use common::starnet;
+
 use burn::module::Module;
 use burn::prelude::*;
 use starnet_train::config::load_config;
 use starnet_train::train::{TrainOptions, load_model, train};
 use std::path::Path;
-use std::process::Command;
 
 const TINY: &str = r#"
 seed = 3
@@ -123,14 +124,6 @@ fn resuming_after_a_crash_gives_the_same_parameters() {
         log.lines().filter(|l| l.contains("\"loss\"")).count() as u64,
         full.steps
     );
-}
-
-fn starnet(args: &[&str], cwd: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_starnet"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .unwrap()
 }
 
 #[test]
