@@ -38,6 +38,25 @@ pub fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|e| DataError::io(path, e))
 }
 
+/// The whitespace-separated numbers of `fields` (line `line` of `path`, 1-based); a value that
+/// is not a finite number is an error naming the file, line, `field` and the value's position.
+pub fn parse_finite_numbers(fields: &str, path: &Path, line: usize, field: &str) -> Result<Vec<f64>> {
+    fields
+        .split_ascii_whitespace()
+        .enumerate()
+        .map(|(j, v)| {
+            v.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
+                DataError::parse(
+                    path,
+                    line,
+                    field,
+                    format!("value {} `{v}` is not a finite number", j + 1),
+                )
+            })
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

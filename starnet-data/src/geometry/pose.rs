@@ -3,7 +3,7 @@
 //! something seen in frame t − 1 into frame t is `P_t⁻¹ · P_{t−1}` ([`Pose::between`]).
 
 use super::{Box3d, wrap_angle};
-use crate::io::read_text;
+use crate::io::{parse_finite_numbers, read_text};
 use crate::{DataError, Result};
 use std::path::Path;
 
@@ -82,20 +82,7 @@ pub fn read_poses(path: &Path) -> Result<Vec<Pose>> {
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())
         .map(|(i, line)| {
-            let v: Vec<f64> = line
-                .split_whitespace()
-                .enumerate()
-                .map(|(k, f)| {
-                    f.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                        DataError::parse(
-                            path,
-                            i + 1,
-                            format!("value {}", k + 1),
-                            format!("`{f}` is not a finite number"),
-                        )
-                    })
-                })
-                .collect::<Result<_>>()?;
+            let v = parse_finite_numbers(line, path, i + 1, "pose")?;
             if v.len() != 12 {
                 return Err(DataError::parse(
                     path,

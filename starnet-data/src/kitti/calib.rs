@@ -2,7 +2,7 @@
 //! Tr_velo_to_cam Tr_imu_to_velo` in that order, and one extra `\n` after the last line.
 //! P2, R0_rect and Tr_velo_to_cam are required; every other key is kept and written back.
 
-use crate::io::{atomic_write, read_text};
+use crate::io::{atomic_write, parse_finite_numbers, read_text};
 use crate::{DataError, Result};
 use nalgebra::{Matrix3, Matrix3x4, Matrix4};
 use std::path::Path;
@@ -104,20 +104,7 @@ impl Calib {
                 Some((k, r)) => (k.trim(), r),
                 None => line.trim().split_once(' ').unwrap_or((line.trim(), "")),
             };
-            let values = rest
-                .split_ascii_whitespace()
-                .enumerate()
-                .map(|(j, v)| {
-                    v.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                        DataError::parse(
-                            path,
-                            i + 1,
-                            key,
-                            format!("value {} `{v}` is not a finite number", j + 1),
-                        )
-                    })
-                })
-                .collect::<Result<Vec<f64>>>()?;
+            let values = parse_finite_numbers(rest, path, i + 1, key)?;
             if entries.iter().any(|(k, ..)| k == key) {
                 return Err(DataError::parse(path, i + 1, key, "key appears twice"));
             }
