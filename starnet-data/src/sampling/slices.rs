@@ -8,7 +8,7 @@
 //! the azimuth interval `[start + s·w, start + (s+1)·w)` (w = 360°/n), measured in the rotation
 //! sense.
 
-use super::{Centers, PipelineConfig, PreparedFrame, center_pool, gather, sample_centers};
+use super::{Augmentation, Centers, PipelineConfig, PreparedFrame, center_pool, gather, sample_centers};
 use crate::augment::{augment, ring_dropout};
 use crate::kitti::{Frame, ObjectClass};
 use crate::sim::sub_seed;
@@ -16,8 +16,6 @@ use crate::{Box3d, Point};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
-
-use super::Augmentation;
 
 /// How a sweep is cut and what a slice may see.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

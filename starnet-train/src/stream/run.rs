@@ -3,7 +3,7 @@
 use crate::Result;
 use crate::config::ExperimentConfig;
 use crate::eval::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_angle, waymo_ap};
-use crate::train::{Budget, EvalReport, to_kitti, waymo_objects};
+use crate::train::{Budget, EvalReport, mean, quantile, to_kitti, waymo_objects};
 use serde::{Deserialize, Serialize};
 use starnet_data::Point;
 use starnet_data::kitti::{KittiDataset, LabelSource};
@@ -189,6 +189,9 @@ pub struct StreamReport {
     pub slice_ms_p95: f64,
     /// Mean total over a sweep's slices, ms.
     pub sweep_ms_mean: f64,
+    /// 95th percentile of that total, ms (absent from reports written before it existed).
+    #[serde(default)]
+    pub sweep_ms_p95: f64,
     /// Per NMS mode, in [`NmsMode::ALL`] order.
     pub modes: Vec<ModeReport>,
 }
@@ -217,7 +220,7 @@ impl StreamReport {
             target: CenterTarget::All,
             gflop_per_frame: self.gflop_per_slice * self.slices as f64,
             latency_ms_mean: self.sweep_ms_mean,
-            latency_ms_p95: self.slice_ms_p95 * self.slices as f64,
+            latency_ms_p95: self.sweep_ms_p95,
             classes: Vec::new(),
             waymo: self.mode(mode).waymo.clone(),
             by_range: Vec::new(),
@@ -291,13 +294,6 @@ pub fn evaluate_stream(
     let per = centers_per_slice(budget.num_centers, n);
     let gflop = forward_gflop(&model_cfg, per, budget.num_points);
     let full = forward_gflop(&model_cfg, budget.num_centers, budget.num_points);
-    slice_ms.sort_by(f64::total_cmp);
-    let quantile = |q: f64| {
-        slice_ms
-            .get(((slice_ms.len() as f64 * q) as usize).min(slice_ms.len().saturating_sub(1)))
-            .copied()
-            .unwrap_or(0.0)
-    };
     Ok(StreamReport {
         slices: n,
         frames: gt.frames.len(),
@@ -307,10 +303,11 @@ pub fn evaluate_stream(
         num_points: budget.num_points,
         gflop_per_slice: gflop,
         peak_fraction: gflop / full,
-        slice_ms_median: quantile(0.5),
-        slice_ms_mean: slice_ms.iter().sum::<f64>() / slice_ms.len().max(1) as f64,
-        slice_ms_p95: quantile(0.95),
-        sweep_ms_mean: sweep_ms.iter().sum::<f64>() / sweep_ms.len().max(1) as f64,
+        slice_ms_median: quantile(&slice_ms, 0.5),
+        slice_ms_mean: mean(&slice_ms),
+        slice_ms_p95: quantile(&slice_ms, 0.95),
+        sweep_ms_mean: mean(&sweep_ms),
+        sweep_ms_p95: quantile(&sweep_ms, 0.95),
         modes: NmsMode::ALL
             .iter()
             .zip(&frames)

@@ -62,8 +62,8 @@ pub fn evaluate_sequences(
     prev: PrevCenters,
 ) -> Result<TemporalReport> {
     let step = SeededStep::new(cfg, budget, prev);
-    let labels = sequences.first().map(|s| s.dataset.labels()).unwrap_or(cfg.data.labels);
-    let mut scorer = Scorer::new(cfg, labels, None);
+    // Sequences are opened with the config's labels.
+    let mut scorer = Scorer::new(cfg, cfg.data.labels, None);
     let (mut corrected, mut uncorrected, mut confident) = (Vec::new(), Vec::new(), Vec::new());
     let mut i = 0;
     for seq in sequences {

@@ -308,20 +308,14 @@ impl<'a> Scorer<'a> {
     /// The report, for frames evaluated at `budget`.
     pub fn finish(self, budget: Budget) -> EvalReport {
         let cfg = self.cfg;
-        let mut sorted = self.times.clone();
-        sorted.sort_by(f64::total_cmp);
-        let p95 = sorted
-            .get(((sorted.len() as f64 * 0.95) as usize).min(sorted.len().saturating_sub(1)))
-            .copied()
-            .unwrap_or(0.0);
         EvalReport {
             frames: self.frames.len(),
             num_centers: budget.num_centers,
             num_points: budget.num_points,
             target: budget.target,
             gflop_per_frame: forward_gflop(&cfg.model_config(), budget.model_centers(), budget.num_points),
-            latency_ms_mean: self.times.iter().sum::<f64>() / self.times.len().max(1) as f64,
-            latency_ms_p95: p95,
+            latency_ms_mean: mean(&self.times),
+            latency_ms_p95: quantile(&self.times, 0.95),
             classes: if self.camera_view {
                 kitti_ap(&self.frames, &cfg.data.classes)
             } else {
@@ -335,6 +329,21 @@ impl<'a> Scorer<'a> {
             },
         }
     }
+}
+
+/// The `q` quantile of `values` (the value at rank ⌊len · q⌋ once sorted; 0 without values).
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    sorted
+        .get(((sorted.len() as f64 * q) as usize).min(sorted.len().saturating_sub(1)))
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// The mean of `values` (0 without values).
+pub fn mean(values: &[f64]) -> f64 {
+    values.iter().sum::<f64>() / values.len().max(1) as f64
 }
 
 /// A frame's labelled objects (DontCare aside) as Waymo ground truth, with the LiDAR returns
