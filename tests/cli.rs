@@ -274,3 +274,31 @@ fn prepare_coverage_and_augmented_render_on_simulated_data() {
         "{err}"
     );
 }
+
+/// Every subcommand's help describes that subcommand alone: no other subcommand's summary
+/// (its first clause) appears in it, so a doc comment cannot drift onto its neighbour.
+#[test]
+fn every_subcommand_help_describes_itself_only() {
+    let top = stdout(&starnet(&["--help"]));
+    let commands: Vec<(String, String)> = top
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| {
+            let (name, about) = l.trim().split_once(char::is_whitespace)?;
+            let clause = about.trim().split([':', '.', ';', ',']).next()?.to_string();
+            (name != "help").then(|| (name.to_string(), clause))
+        })
+        .collect();
+    assert!(commands.len() >= 12, "{top}");
+    for (name, _) in &commands {
+        let help = stdout(&starnet(&[name, "--help"]));
+        for (other, clause) in commands.iter().filter(|(o, _)| o != name) {
+            assert!(
+                !help.contains(clause.as_str()),
+                "`starnet {name} --help` holds `{other}`'s summary \"{clause}\""
+            );
+        }
+    }
+}

@@ -190,10 +190,6 @@ enum Command {
         #[arg(long, value_delimiter = ',', default_value = "0")]
         prev_centers: Vec<PrevCenters>,
     },
-    /// Export a checkpoint for other runtimes: model.safetensors (PyTorch names and layouts, the
-    /// config in its metadata), model.json (the contract for host code: features, widths, anchors
-    /// and their order, box coder, classes, NMS, sampling) and golden.safetensors (an input and
-    /// the outputs it must give).
     /// Streaming evaluation: each sweep cut into n azimuth slices and detected slice by slice;
     /// Waymo-style AP per class with per-slice ("localized"), stateful and global NMS, vehicle AP
     /// by subtended angle, peak compute and measured per-slice latency with the worst-case
@@ -227,6 +223,10 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Export a checkpoint for other runtimes: model.safetensors (PyTorch names and layouts, the
+    /// config in its metadata), model.json (the contract for host code: features, widths, anchors
+    /// and their order, box coder, classes, NMS, sampling) and golden.safetensors (an input and
+    /// the outputs it must give).
     Export {
         /// A checkpoint folder (runs/NAME/checkpoints/best) or its model.bpk.
         #[arg(long)]
