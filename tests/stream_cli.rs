@@ -66,7 +66,7 @@ fn train_on_slices_then_stream_eval() {
         assert!(table.contains(row), "{row} missing:\n{table}");
     }
     assert!(
-        table.contains("baseline (n = 1)") && table.contains("worst case ms"),
+        table.contains("baseline (n = 1)") && table.contains("worst case ms") && table.contains("recall / precision"),
         "{table}"
     );
     for png in ["stream_ap.png", "stream_flops.png", "stream_latency.png"] {
@@ -88,6 +88,9 @@ fn train_on_slices_then_stream_eval() {
     let modes = &reports[0]["modes"];
     let ap = |m: usize| modes[m]["waymo"][0]["levels"][1]["ap"].as_f64().unwrap();
     assert!(ap(0) == ap(1) && ap(1) == ap(2), "{modes}");
+    let boxes = |m: usize| &modes[m]["waymo"][0]["all_boxes"];
+    assert!(boxes(0) == boxes(1) && boxes(1) == boxes(2), "{modes}");
+    assert!(boxes(0)[1]["recall"].as_f64().is_some(), "{modes}");
     // The LSTM variant cannot be exported (yet): a clear refusal, nothing written.
     let o = starnet(&["export", "--checkpoint", &ckpt("s-lstm"), "--out", "x"], d);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("LSTM"));

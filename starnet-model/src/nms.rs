@@ -42,12 +42,14 @@ pub struct NmsConfig {
 /// a kept box of the same class overlaps them above the class's IoU threshold. Output sorted by
 /// descending score, at most `max_boxes`.
 pub fn nms(dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
-    nms_after(&[], dets, cfg)
+    nms_after(&[], dets, cfg, Precedence::Arrival)
 }
 
 /// [`nms`] continuing from boxes kept earlier: `earlier` suppress like kept boxes but are not
-/// returned (nor counted against `max_boxes`).
-pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
+/// returned (nor counted against `max_boxes`). With [`Precedence::Arrival`] an earlier box
+/// suppresses every overlapping new box; with [`Precedence::Score`] only those it outscores
+/// (ties go to the earlier box).
+pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, precedence: Precedence) -> Vec<Detection> {
     let mut order: Vec<usize> = (0..dets.len())
         .filter(|&i| {
             cfg.per_class
@@ -63,8 +65,10 @@ pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig) -> 
         }
         let d = dets[i];
         let thr = cfg.per_class[d.class].iou;
+        let outranks = |e: &&Detection| precedence == Precedence::Arrival || e.score >= d.score;
         if earlier
             .iter()
+            .filter(outranks)
             .chain(&kept)
             .all(|k| k.class != d.class || iou_3d(&k.b, &d.b) <= thr)
         {
@@ -74,19 +78,37 @@ pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig) -> 
     kept
 }
 
+/// Which of two overlapping boxes stateful NMS keeps when one was emitted in an earlier slice
+/// (already reported, so it cannot be withdrawn) and the other arrives now.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Precedence {
+    /// As NMS over the remembered and the new boxes together: a remembered box suppresses the
+    /// new boxes it outscores, and a more confident new box is emitted as well (global NMS
+    /// would have dropped the remembered one instead). The default: a slice that saw only the
+    /// edge of an object, at low confidence, does not veto the slice that sees it whole.
+    #[default]
+    Score,
+    /// What was emitted first stands: a remembered box suppresses every overlapping new box.
+    Arrival,
+}
+
 /// NMS that remembers the boxes it kept in its last `k` calls and suppresses new boxes that
-/// overlap them (for the slices of a streaming sweep). `reset` starts a new sweep.
+/// overlap them (for the slices of a streaming sweep), under a [`Precedence`]. `reset` starts a
+/// new sweep.
 #[derive(Debug, Clone)]
 pub struct StatefulNms {
     k: usize,
+    precedence: Precedence,
     history: VecDeque<Vec<Detection>>,
 }
 
 impl StatefulNms {
     /// Remembers the last `k` calls (the streaming paper uses k = 1).
-    pub fn new(k: usize) -> Self {
+    pub fn new(k: usize, precedence: Precedence) -> Self {
         Self {
             k,
+            precedence,
             history: VecDeque::new(),
         }
     }
@@ -96,12 +118,12 @@ impl StatefulNms {
         self.history.clear();
     }
 
-    /// Greedy NMS of `dets` as if the remembered boxes had been kept first: a box is dropped
-    /// when a remembered or newly kept box of its class overlaps it (a box dropped by memory
-    /// suppresses nothing).
+    /// Greedy NMS of `dets` continuing from the remembered boxes ([`nms_after`]): a box is
+    /// dropped when a newly kept box of its class, or a remembered one that takes precedence,
+    /// overlaps it (a dropped box suppresses nothing).
     pub fn step(&mut self, dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
         let remembered: Vec<Detection> = self.history.iter().flatten().copied().collect();
-        let kept = nms_after(&remembered, dets, cfg);
+        let kept = nms_after(&remembered, dets, cfg, self.precedence);
         if self.k > 0 {
             self.history.push_back(kept.clone());
             while self.history.len() > self.k {
@@ -152,7 +174,7 @@ mod tests {
 
     #[test]
     fn stateful_nms_suppresses_a_previous_calls_box_and_forgets_after_k() {
-        let mut s = StatefulNms::new(1);
+        let mut s = StatefulNms::new(1, Precedence::Arrival);
         let c = cfg(10);
         assert_eq!(s.step(&[det(0.0, 0, 0.9)], &c).len(), 1);
         // The same object again in the next slice, even with a higher score: suppressed.
@@ -163,6 +185,21 @@ mod tests {
         assert_eq!(s.step(&[det(0.2, 0, 0.95)], &c).len(), 1);
         // Other classes are not suppressed.
         assert_eq!(s.step(&[det(0.2, 1, 0.95)], &c).len(), 1);
+    }
+
+    #[test]
+    fn score_precedence_lets_a_more_confident_later_box_through() {
+        let c = cfg(10);
+        let edge = det(0.0, 0, 0.3); // slice 0 saw the object's edge
+        let whole = det(0.4, 0, 0.9); // slice 1 sees it whole
+        let mut arrival = StatefulNms::new(1, Precedence::Arrival);
+        let mut score = StatefulNms::new(1, Precedence::Score);
+        assert_eq!(arrival.step(&[edge], &c), [edge]);
+        assert_eq!(score.step(&[edge], &c), [edge]);
+        assert!(arrival.step(&[whole], &c).is_empty());
+        assert_eq!(score.step(&[whole], &c), [whole]);
+        // Slice 2 again at 0.3: under a 0.9 memory it is dropped either way (ties go to memory).
+        assert!(score.step(&[det(0.8, 0, 0.9)], &c).is_empty());
     }
 
     /// Greedy NMS taking boxes slice by slice (each slice best score first): the oracle of
@@ -188,7 +225,7 @@ mod tests {
     }
 
     fn stateful_all(slices: &[Vec<Detection>], k: usize, cfg: &NmsConfig) -> Vec<Detection> {
-        let mut s = StatefulNms::new(k);
+        let mut s = StatefulNms::new(k, Precedence::Arrival);
         slices.iter().flat_map(|d| s.step(d, cfg)).collect()
     }
 
@@ -232,6 +269,33 @@ mod tests {
                 .collect();
             let all_ranked: Vec<Detection> = ranked.iter().flatten().copied().collect();
             proptest::prop_assert_eq!(sorted(stateful_all(&ranked, n - 1, &c)), sorted(nms(&all_ranked, &c)));
+            // Score precedence, checked against the definition of greedy NMS: an emitted box
+            // overlaps no emitted box of its own or an earlier slice that outranks it (scores
+            // higher, or ties and came first), and every dropped box overlaps one that does.
+            let emitted: Vec<Vec<Detection>> = {
+                let mut s = StatefulNms::new(n - 1, Precedence::Score);
+                slices.iter().map(|d| s.step(d, &c)).collect()
+            };
+            for (s, slice) in slices.iter().enumerate() {
+                let clash = |d: &Detection, e: &Detection| e.class == d.class && iou_3d(&e.b, &d.b) > c.per_class[0].iou;
+                for d in slice.iter().filter(|d| d.score >= c.per_class[d.class].score) {
+                    let mine = emitted[s].iter().position(|e| e == d);
+                    let outranked = emitted[..s].iter().flatten().any(|e| e.score >= d.score && clash(d, e))
+                        || emitted[s]
+                            .iter()
+                            .enumerate()
+                            .any(|(j, e)| Some(j) != mine && (e.score > d.score || (e.score == d.score && Some(j) < mine)) && clash(d, e));
+                    proptest::prop_assert_eq!(mine.is_some(), !outranked, "slice {} box {:?}", s, d);
+                }
+            }
+            // Arriving best first, score precedence is the global NMS too.
+            proptest::prop_assert_eq!(
+                sorted({
+                    let mut s = StatefulNms::new(n - 1, Precedence::Score);
+                    ranked.iter().flat_map(|d| s.step(d, &c)).collect()
+                }),
+                sorted(nms(&all_ranked, &c))
+            );
             // With one slice, all three are the same NMS.
             if n == 1 {
                 proptest::prop_assert_eq!(sorted(stateful_all(&slices, 1, &c)), sorted(nms(&all, &c)));

@@ -14,7 +14,7 @@ use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::{AnchorGrid, PipelineConfig, SliceConfig};
 use starnet_model::assign::AssignConfig;
 use starnet_model::loss::{HeadingLoss, LossConfig};
-use starnet_model::nms::{ClassNms, NmsConfig};
+use starnet_model::nms::{ClassNms, NmsConfig, Precedence};
 use starnet_model::nn::{FeaturizerConfig, StarNetConfig};
 use std::path::{Path, PathBuf};
 use toml::{Table, Value};
@@ -71,6 +71,10 @@ pub struct StreamSection {
     /// Stateful NMS memory k: a slice's boxes are also suppressed by the boxes kept in the
     /// previous k slices (the paper: 1).
     pub nms_memory: usize,
+    /// Which of two overlapping boxes from different slices stateful NMS keeps: `score` (the
+    /// more confident, unless the earlier one was already emitted; as NMS over both slices'
+    /// boxes) or `arrival` (the earlier one always).
+    pub nms_precedence: Precedence,
     /// Streaming evaluations count objects and detections within this bird's-eye-view range,
     /// metres (the center pool's reach; `inf`: everything labelled).
     pub eval_range: f32,
@@ -263,6 +267,7 @@ impl Default for ExperimentConfig {
                 train_slices: Vec::new(),
                 eval_slices: 8,
                 nms_memory: 1,
+                nms_precedence: Precedence::Score,
                 eval_range: f32::INFINITY,
                 scan_hz: 10.0,
                 slicing: SliceConfig::default(),

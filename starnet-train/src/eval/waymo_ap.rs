@@ -81,6 +81,20 @@ pub struct WaymoClassAp {
     pub ranges: [[ApAph; 3]; 2],
     /// Ground-truth objects counted at `[LEVEL_1, LEVEL_2]`.
     pub num_objects: [usize; 2],
+    /// `[LEVEL_1, LEVEL_2]` recall and precision of every prediction (the lowest cutoff), in
+    /// percent: how many objects some box finds, and how many boxes find one (absent from
+    /// reports written before they existed).
+    #[serde(default)]
+    pub all_boxes: [RecallPrecision; 2],
+}
+
+/// Recall and precision at one cutoff, in percent.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct RecallPrecision {
+    /// True positives over the counted objects.
+    pub recall: f64,
+    /// True positives over the predictions that are not matched to ignored objects.
+    pub precision: f64,
 }
 
 /// The box's Waymo difficulty: 1, 2, or `None` without points.
@@ -214,8 +228,11 @@ fn envelope_ap(mut pr: Vec<(f64, f64)>) -> f64 {
     ap
 }
 
-/// AP and APH of one class and range shard at `[LEVEL_1, LEVEL_2]`, with the objects counted.
-fn ap_aph(frames: &[WaymoFrame], class: ObjectClass, shard: (f32, f32)) -> ([ApAph; 2], [usize; 2]) {
+/// AP and APH of one class and range shard at `[LEVEL_1, LEVEL_2]`, with the objects counted
+/// and the recall and precision of every prediction.
+type LevelResults = ([ApAph; 2], [usize; 2], [RecallPrecision; 2]);
+
+fn ap_aph(frames: &[WaymoFrame], class: ObjectClass, shard: (f32, f32)) -> LevelResults {
     let iou = official_min_overlap(class);
     let cases: Vec<FrameCase> = frames.iter().map(|f| frame_case(f, class, shard, iou)).collect();
     // The matching depends on the cutoff only through how many predictions pass it: compute
@@ -230,6 +247,7 @@ fn ap_aph(frames: &[WaymoFrame], class: ObjectClass, shard: (f32, f32)) -> ([ApA
             .map(|c| (0..c.levels.len()).filter(|&i| c.counted(i, l + 1)).count())
             .sum();
         let (mut pr, mut prh) = (Vec::new(), Vec::new());
+        let mut all_boxes = RecallPrecision::default();
         for t in 0..=100 {
             let cutoff = t as f32 / 100.0;
             let mut total = Counts::default();
@@ -243,6 +261,12 @@ fn ap_aph(frames: &[WaymoFrame], class: ObjectClass, shard: (f32, f32)) -> ([ApA
             }
             if total.tp + total.fp > 0.0 && total.tp + total.fn_ > 0.0 {
                 let (pos, gt) = (total.tp + total.fp, total.tp + total.fn_);
+                if t == 0 {
+                    all_boxes = RecallPrecision {
+                        recall: 100.0 * total.tp / gt,
+                        precision: 100.0 * total.tp / pos,
+                    };
+                }
                 pr.push((total.tp / gt, total.tp / pos));
                 prh.push((total.tp_heading / gt, total.tp_heading / pos));
             }
@@ -251,10 +275,10 @@ fn ap_aph(frames: &[WaymoFrame], class: ObjectClass, shard: (f32, f32)) -> ([ApA
             ap: envelope_ap(pr) * 100.0,
             aph: envelope_ap(prh) * 100.0,
         };
-        (result, num_objects)
+        (result, num_objects, all_boxes)
     };
-    let ((l1, n1), (l2, n2)) = (level(0), level(1));
-    ([l1, l2], [n1, n2])
+    let ((l1, n1, b1), (l2, n2, b2)) = (level(0), level(1));
+    ([l1, l2], [n1, n2], [b1, b2])
 }
 
 /// Waymo-style AP and APH for each of `classes`.
@@ -262,7 +286,7 @@ pub fn waymo_ap(frames: &[WaymoFrame], classes: &[ObjectClass]) -> Vec<WaymoClas
     classes
         .iter()
         .map(|&class| {
-            let (levels, num_objects) = ap_aph(frames, class, (0.0, f32::INFINITY));
+            let (levels, num_objects, all_boxes) = ap_aph(frames, class, (0.0, f32::INFINITY));
             let shards = RANGE_SHARDS.map(|s| ap_aph(frames, class, s).0);
             WaymoClassAp {
                 class,
@@ -270,6 +294,7 @@ pub fn waymo_ap(frames: &[WaymoFrame], classes: &[ObjectClass]) -> Vec<WaymoClas
                 levels,
                 ranges: [shards.map(|s| s[0]), shards.map(|s| s[1])],
                 num_objects,
+                all_boxes,
             }
         })
         .collect()
@@ -338,6 +363,16 @@ mod tests {
         // LEVEL_2: one of two found at precision 1.
         assert!((r.levels[1].ap - 50.0).abs() < 1e-9);
         assert_eq!(r.num_objects, [1, 2]);
+        // The box on the ignored LEVEL_2 car is no false positive at LEVEL_1: no precision
+        // point there at all, and 1 of 2 at precision 1 at LEVEL_2.
+        assert_eq!(r.all_boxes[0], RecallPrecision::default());
+        assert_eq!(
+            r.all_boxes[1],
+            RecallPrecision {
+                recall: 50.0,
+                precision: 100.0
+            }
+        );
     }
 
     #[test]
@@ -350,6 +385,8 @@ mod tests {
         // then only the false positive. The envelope is 2/3 up to recall 1: AP = 66.7.
         let r = first(&frames);
         assert!((r.levels[0].ap - 200.0 / 3.0).abs() < 1e-6, "{}", r.levels[0].ap);
+        assert!((r.all_boxes[0].recall - 100.0).abs() < 1e-9);
+        assert!((r.all_boxes[0].precision - 200.0 / 3.0).abs() < 1e-6);
     }
 
     #[test]

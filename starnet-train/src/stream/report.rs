@@ -104,6 +104,21 @@ pub fn stream_tables(runs: &[StreamRun]) -> String {
                 let _ = writeln!(s);
             }
         }
+        let _ = writeln!(
+            s,
+            "\n{class}: LEVEL_1 recall / precision of every box the variant emits, % (duplicates cost precision; suppressing the better of two boxes costs recall)\n"
+        );
+        header(&mut s, "model | variant");
+        for run in runs {
+            for mode in NmsMode::ALL {
+                let _ = write!(s, "| {} |", run.row(mode));
+                for r in &run.reports {
+                    let b = r.mode(mode).waymo.get(k).map(|w| w.all_boxes[0]).unwrap_or_default();
+                    let _ = write!(s, " {:.0} / {:.0} |", b.recall, b.precision);
+                }
+                let _ = writeln!(s);
+            }
+        }
         let _ = writeln!(s);
     }
     if let Some(last) = first.reports.last() {

@@ -88,7 +88,7 @@ pub fn stream_sweep(
     let per = centers_per_slice(budget.num_centers, n);
     // What the sensor delivers; cutting is the sensor's work, not the detector's, so untimed.
     let slices = slice_points(points, n, &cfg.stream.slicing);
-    let mut stateful = StatefulNms::new(cfg.stream.nms_memory);
+    let mut stateful = StatefulNms::new(cfg.stream.nms_memory, cfg.stream.nms_precedence);
     let mut state = None;
     let mut out = StreamedSweep {
         localized: Vec::new(),
