@@ -198,7 +198,7 @@ mod tests {
         assert_eq!(score.step(&[edge], &c), [edge]);
         assert!(arrival.step(&[whole], &c).is_empty());
         assert_eq!(score.step(&[whole], &c), [whole]);
-        // Slice 2 again at 0.3: under a 0.9 memory it is dropped either way (ties go to memory).
+        // Slice 2 sees it again, also at 0.9: a tie goes to the remembered box.
         assert!(score.step(&[det(0.8, 0, 0.9)], &c).is_empty());
     }
 
