@@ -228,10 +228,11 @@ fn envelope_ap(mut pr: Vec<(f64, f64)>) -> f64 {
     ap
 }
 
-/// AP and APH of one class and range shard at `[LEVEL_1, LEVEL_2]`, with the objects counted
-/// and the recall and precision of every prediction.
+/// Per `[LEVEL_1, LEVEL_2]`: AP and APH, the objects counted, and every prediction's recall and
+/// precision.
 type LevelResults = ([ApAph; 2], [usize; 2], [RecallPrecision; 2]);
 
+/// The [`LevelResults`] of one class and range shard.
 fn ap_aph(frames: &[WaymoFrame], class: ObjectClass, shard: (f32, f32)) -> LevelResults {
     let iou = official_min_overlap(class);
     let cases: Vec<FrameCase> = frames.iter().map(|f| frame_case(f, class, shard, iou)).collect();
