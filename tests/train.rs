@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::starnet;
+use common::{TINY_CAR, starnet};
 
 use burn::module::Module;
 use burn::prelude::*;
@@ -10,38 +10,29 @@ use starnet_train::config::load_config;
 use starnet_train::train::{TrainOptions, load_model, train};
 use std::path::Path;
 
+/// `common::TINY_CAR` with two blocks, a 0.3 score threshold and three epochs.
 const TINY: &str = r#"
+base = "tiny-car.toml"
 seed = 3
-[data]
-root = "DATA"
-simulate_frames = 8
-classes = ["Car"]
-[pipeline]
-num_centers = 32
-[pipeline.gather]
-num_points = 8
-radius = 2.0
 [model]
-d_fc0 = 8
 blocks = [[16, 8], [16, 8]]
-d_offset = 8
 [nms]
-iou = [0.1]
 score = [0.3]
 [train]
 epochs = 3
-batch_size = 2
 learning_rate = 0.002
 decay_start_epoch = 1
 workers = 2
-[eval]
-num_centers = 32
-num_points = 8
 "#;
 
 fn tiny_config(dir: &Path) -> std::path::PathBuf {
+    std::fs::write(
+        dir.join("tiny-car.toml"),
+        TINY_CAR.replace("DATA", &dir.join("data").display().to_string()),
+    )
+    .unwrap();
     let p = dir.join("tiny.toml");
-    std::fs::write(&p, TINY.replace("DATA", &dir.join("data").display().to_string())).unwrap();
+    std::fs::write(&p, TINY).unwrap();
     p
 }
 
