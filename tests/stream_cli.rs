@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{TINY_CAR, ok, starnet};
+use common::{ok, starnet, write_tiny_car};
 
 /// The streaming settings over `common::TINY_CAR`.
 const STREAM: &str = r#"
@@ -25,11 +25,7 @@ eval_range = 40.0
 fn train_on_slices_then_stream_eval() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(
-        d.join("tiny.toml"),
-        TINY_CAR.replace("DATA", &d.join("data").display().to_string()),
-    )
-    .unwrap();
+    write_tiny_car(d, "tiny.toml");
     std::fs::write(d.join("s.toml"), STREAM).unwrap();
     std::fs::write(d.join("s-lstm.toml"), "base = \"s.toml\"\n[model]\nlstm_hidden = 8\n").unwrap();
     for cfg in ["s.toml", "s-lstm.toml"] {

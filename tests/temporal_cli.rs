@@ -3,17 +3,13 @@
 
 mod common;
 
-use common::{TINY_CAR, ok, starnet};
+use common::{ok, starnet, write_tiny_car};
 
 #[test]
 fn sequences_with_previous_frame_centers() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(
-        d.join("t.toml"),
-        TINY_CAR.replace("DATA", &d.join("data").display().to_string()),
-    )
-    .unwrap();
+    write_tiny_car(d, "t.toml");
     ok(&starnet(&["train", "--config", "t.toml"], d));
     ok(&starnet(
         &[

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{TINY_CAR, starnet};
+use common::{starnet, write_tiny_car};
 
 use burn::module::Module;
 use burn::prelude::*;
@@ -26,11 +26,7 @@ workers = 2
 "#;
 
 fn tiny_config(dir: &Path) -> std::path::PathBuf {
-    std::fs::write(
-        dir.join("tiny-car.toml"),
-        TINY_CAR.replace("DATA", &dir.join("data").display().to_string()),
-    )
-    .unwrap();
+    write_tiny_car(dir, "tiny-car.toml");
     let p = dir.join("tiny.toml");
     std::fs::write(&p, TINY).unwrap();
     p

@@ -62,3 +62,10 @@ workers = 1
 num_centers = 32
 num_points = 8
 "#;
+
+/// Writes [`TINY_CAR`] as `dir/name`, its data root `dir/data`; returns the file's path.
+pub fn write_tiny_car(dir: &Path, name: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, TINY_CAR.replace("DATA", &dir.join("data").display().to_string())).unwrap();
+    path
+}

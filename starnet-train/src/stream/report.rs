@@ -80,12 +80,22 @@ pub fn stream_tables(runs: &[StreamRun]) -> String {
         return s;
     };
     let ns: Vec<usize> = first.reports.iter().map(|r| r.slices).collect();
-    let header = |s: &mut String, lead: &str| {
-        let _ = write!(s, "| {lead} |");
+    // One row per model and NMS mode, one cell per slice count.
+    let table = |s: &mut String, cell: &dyn Fn(&StreamReport, NmsMode) -> String| {
+        let _ = write!(s, "| model | variant |");
         for n in &ns {
             let _ = write!(s, " n = {n} |");
         }
         let _ = writeln!(s, "\n|---|---|{}", "---|".repeat(ns.len()));
+        for run in runs {
+            for mode in NmsMode::ALL {
+                let _ = write!(s, "| {} |", run.row(mode));
+                for r in &run.reports {
+                    let _ = write!(s, " {} |", cell(r, mode));
+                }
+                let _ = writeln!(s);
+            }
+        }
     };
     for (k, class) in first.classes.iter().enumerate() {
         let _ = writeln!(
@@ -94,31 +104,15 @@ pub fn stream_tables(runs: &[StreamRun]) -> String {
             first.full().frames,
             first.full().num_centers
         );
-        header(&mut s, "model | variant");
-        for run in runs {
-            for mode in NmsMode::ALL {
-                let _ = write!(s, "| {} |", run.row(mode));
-                for r in &run.reports {
-                    let _ = write!(s, " {:.1} |", r.ap(mode, k));
-                }
-                let _ = writeln!(s);
-            }
-        }
+        table(&mut s, &|r, mode| format!("{:.1}", r.ap(mode, k)));
         let _ = writeln!(
             s,
             "\n{class}: LEVEL_1 recall / precision of every box the variant emits, % (duplicates cost precision; suppressing the better of two boxes costs recall)\n"
         );
-        header(&mut s, "model | variant");
-        for run in runs {
-            for mode in NmsMode::ALL {
-                let _ = write!(s, "| {} |", run.row(mode));
-                for r in &run.reports {
-                    let b = r.mode(mode).waymo.get(k).map(|w| w.all_boxes[0]).unwrap_or_default();
-                    let _ = write!(s, " {:.0} / {:.0} |", b.recall, b.precision);
-                }
-                let _ = writeln!(s);
-            }
-        }
+        table(&mut s, &|r, mode| {
+            let b = r.mode(mode).waymo.get(k).map(|w| w.all_boxes[0]).unwrap_or_default();
+            format!("{:.0} / {:.0}", b.recall, b.precision)
+        });
         let _ = writeln!(s);
     }
     if let Some(last) = first.reports.last() {
