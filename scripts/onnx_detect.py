@@ -68,11 +68,12 @@ def fps_bev(xy, n, rng):
     return np.array(chosen)
 
 
-def gather(points, centers, num_points, radius, rng):
+def gather(points, centers, num_points, radius, metric, rng):
     feats = np.zeros((len(centers), num_points, 4), np.float32)
     mask = np.zeros((len(centers), num_points), np.float32)
+    axes = 2 if metric == "cylinder" else 3  # the cylinder bounds the distance in x, y only
     for c, ctr in enumerate(centers):
-        near = np.flatnonzero(((points[:, :3] - ctr) ** 2).sum(1) <= radius * radius)
+        near = np.flatnonzero(((points[:, :axes] - ctr[:axes]) ** 2).sum(1) <= radius * radius)
         if len(near) > num_points:
             near = rng.choice(near, num_points, replace=False)
         feats[c, : len(near), :3] = points[near, :3] - ctr
@@ -100,6 +101,14 @@ def decode(r, a):
     return np.stack([a[:, 0] + r[:, 0] * d, a[:, 1] + r[:, 1] * d, a[:, 2] + r[:, 2] * a[:, 5],
                      a[:, 3] * np.exp(r[:, 3]), a[:, 4] * np.exp(r[:, 4]), a[:, 5] * np.exp(r[:, 5]),
                      heading], 1)
+
+
+def with_direction(heading, dir_logits, offset):
+    """Turns each heading into the half-turn of its more likely direction bin (model.json
+    `direction`)."""
+    bins = dir_logits.argmax(1)
+    folded = np.mod(heading - offset, math.pi)
+    return -math.pi + np.mod(offset + folded + math.pi * bins + math.pi, 2 * math.pi)
 
 
 def corners_bev(b):
@@ -203,11 +212,15 @@ def main():
     centers = points[chosen, :3].astype(np.float32)
     if spec["center_z"] == "zero":
         centers[:, 2] = 0.0
-    feats, mask = gather(points, centers, spec["num_points"], spec["radius"], rng)
-    logits, residuals = session.run(None, {"points": feats, "mask": mask})
+    feats, mask = gather(points, centers, spec["num_points"], spec["radius"],
+                         spec.get("gather_metric", "ball"), rng)
+    outputs = session.run(None, {"points": feats, "mask": mask})
+    logits, residuals = outputs[0], outputs[1]
 
     anchors = np.concatenate([anchors_around(c, spec["anchors"]) for c in centers])
     boxes = decode(residuals.reshape(-1, 7).astype(np.float64), anchors)
+    if spec.get("direction"):
+        boxes[:, 6] = with_direction(boxes[:, 6], outputs[2].reshape(-1, 2), spec["direction"]["offset"])
     scores = 1.0 / (1.0 + np.exp(-logits.reshape(len(anchors), -1)))
     lines = []
     for k, name in enumerate(spec["classes"]):

@@ -64,7 +64,11 @@ fn main() {
         &mut ChaCha8Rng::seed_from_u64(1),
     );
     for radius in [2.0, 3.75] {
-        let g = GatherConfig { num_points: 64, radius };
+        let g = GatherConfig {
+            num_points: 64,
+            radius,
+            metric: Default::default(),
+        };
         let ms = median_ms(|| {
             std::hint::black_box(gather(pts, &centers, &g, &mut ChaCha8Rng::seed_from_u64(2)));
         });

@@ -7,7 +7,7 @@
 //! Weights follow the authors' normalisation: each anchor counts `1 / (C · max(1, n_fg))`, where
 //! `n_fg` is the number of foreground anchors at its center, so every center weighs the same.
 
-use crate::coder::encode;
+use crate::coder::{direction_bin, encode};
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::iou_bev;
@@ -61,6 +61,9 @@ pub struct AnchorTargets {
     pub reg_weight: Vec<f32>,
     /// Per anchor: encoded residuals of the matched box (zeros elsewhere).
     pub residuals: Vec<[f32; 7]>,
+    /// Per anchor: the matched box's direction bin ([`direction_bin`]; 0 elsewhere, where the
+    /// regression weight is 0).
+    pub direction: Vec<u8>,
 }
 
 impl AnchorTargets {
@@ -119,6 +122,7 @@ pub fn assign_targets(
         cls_weight: vec![0.0; n],
         reg_weight: vec![0.0; n],
         residuals: vec![[0.0; 7]; n],
+        direction: vec![0; n],
     };
     for c in 0..c_n {
         if !valid.get(c).copied().unwrap_or(true) {
@@ -134,6 +138,7 @@ pub fn assign_targets(
                 out.reg_weight[i] = w;
                 out.cls_weight[i] = w;
                 out.residuals[i] = encode(&boxes[j], &anchors[i]);
+                out.direction[i] = direction_bin(boxes[j].heading) as u8;
             } else if !ignored[i] {
                 out.cls_weight[i] = w;
             }
@@ -160,6 +165,10 @@ mod tests {
         let t = assign_targets(&an, a, &[true], &[car], &[0], &AssignConfig::default());
         assert_eq!(t.class[48], 0);
         assert!(t.residuals[48].iter().all(|r| r.abs() < 1e-6));
+        // Heading 0 lies in direction bin 1; unmatched anchors carry 0.
+        assert_eq!(car.heading, 0.0);
+        assert_eq!(t.direction[48], 1);
+        assert!((0..an.len()).all(|i| t.class[i] == 0 || t.direction[i] == 0));
         for (i, anchor) in an.iter().enumerate() {
             let iou = iou_bev(anchor, &car);
             match t.class[i] {

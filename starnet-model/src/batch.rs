@@ -2,7 +2,7 @@
 //! model's outputs to detections per frame.
 
 use crate::assign::{AnchorTargets, AssignConfig, assign_targets};
-use crate::coder::decode;
+use crate::coder::{decode, with_direction};
 use crate::loss::LossTargets;
 use crate::nms::{Detection, NmsConfig, nms};
 use crate::nn::{ModelInput, ModelOutput};
@@ -114,6 +114,13 @@ pub fn make_batch(
             )
             .reshape([b, c, a, 7]),
             reg_weight: floats(targets.iter().flat_map(|t| t.reg_weight.iter().copied()).collect()).reshape([b, c, a]),
+            direction: floats(
+                targets
+                    .iter()
+                    .flat_map(|t| t.direction.iter().map(|&d| f32::from(d)))
+                    .collect(),
+            )
+            .reshape([b, c, a]),
         },
     }
 }
@@ -131,7 +138,8 @@ pub fn decode_frame(
 }
 
 /// [`decode_frame`] before NMS: every anchor of a valid center whose class score reaches the
-/// class's score threshold, in anchor order (for NMS across frames or slices).
+/// class's score threshold, in anchor order (for NMS across frames or slices). With direction
+/// logits, each heading is turned into the half-turn of its more likely bin.
 pub fn decode_detections(
     out: &ModelOutput,
     i: usize,
@@ -154,6 +162,10 @@ pub fn decode_detections(
         .into_data()
         .iter::<f32>()
         .collect();
+    let flip: Option<Vec<bool>> = out.dir_logits.as_ref().map(|d| {
+        let v: Vec<f32> = d.clone().slice_dim(0, i..i + 1).into_data().iter::<f32>().collect();
+        v.chunks_exact(2).map(|l| l[1] > l[0]).collect()
+    });
     let anchors = frame_anchors(frame, grid);
     let mut dets = Vec::new();
     for ci in (0..c).filter(|&ci| frame.centers.valid[ci]) {
@@ -163,11 +175,11 @@ pub fn decode_detections(
                 let score = 1.0 / (1.0 + (-logits[n * k + class]).exp());
                 if cfg.per_class.get(class).is_some_and(|t| score >= t.score) {
                     let r: [f32; 7] = res[n * 7..n * 7 + 7].try_into().expect("7 residuals");
-                    dets.push(Detection {
-                        b: decode(&r, &anchors[n]),
-                        class,
-                        score,
-                    });
+                    let mut b = decode(&r, &anchors[n]);
+                    if let Some(f) = &flip {
+                        b.heading = with_direction(b.heading, usize::from(f[n]));
+                    }
+                    dets.push(Detection { b, class, score });
                 }
             }
         }

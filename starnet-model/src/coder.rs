@@ -6,8 +6,32 @@
 //! ```
 //! The heading residual is not wrapped (the losses decide how to compare angles); decoding
 //! wraps the heading back to [−π, π).
+//!
+//! Direction bins (SECOND, OpenPCDet's `dir_offset`): the heading loss on sin Δ cannot tell a
+//! box from its 180° turn, so a two-bin classifier says which half-turn the heading lies in:
+//! bin `⌊((φ − offset) mod 2π) / π⌋` ([`direction_bin`]); decoding folds the regressed heading
+//! into that half-turn ([`with_direction`]).
 
-use starnet_data::Box3d;
+use starnet_data::{Box3d, wrap_angle};
+use std::f32::consts::{PI, TAU};
+
+/// Where the two direction bins meet (and π later): OpenPCDet's KITTI `dir_offset`, π/4, away
+/// from the headings roads make common (0, ±π/2, π).
+pub const DIRECTION_OFFSET: f32 = std::f32::consts::FRAC_PI_4;
+
+/// The direction bin (0 or 1) of heading `phi`: which half-turn from [`DIRECTION_OFFSET`].
+pub fn direction_bin(phi: f32) -> usize {
+    let a = (phi - DIRECTION_OFFSET).rem_euclid(TAU);
+    usize::from(a >= PI)
+}
+
+/// Heading `phi` turned by π if needed so that it lies in direction bin `bin`, wrapped to
+/// [−π, π): the inverse of [`direction_bin`] up to a half-turn
+/// (`with_direction(φ + kπ, direction_bin(φ)) = φ`).
+pub fn with_direction(phi: f32, bin: usize) -> f32 {
+    let folded = (phi - DIRECTION_OFFSET).rem_euclid(PI);
+    wrap_angle(DIRECTION_OFFSET + folded + PI * bin as f32)
+}
 
 /// Residuals of `gt` against `anchor`.
 pub fn encode(gt: &Box3d, anchor: &Box3d) -> [f32; 7] {
@@ -50,6 +74,27 @@ mod tests {
         // d = 5: (5/5, −5/5, 1/2, ln 2, 0, ln ½, 0.5).
         let want = [1.0, -1.0, 0.5, 2f32.ln(), 0.0, 0.5f32.ln(), 0.5];
         assert!(r.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-6), "{r:?}");
+    }
+
+    #[test]
+    fn direction_bins_round_trip_and_hand_values() {
+        // Heading 0 is 7π/4 past the offset: bin 1; heading π is 3π/4 past it: bin 0.
+        assert_eq!(direction_bin(0.0), 1);
+        assert_eq!(direction_bin(PI - 1e-3), 0);
+        assert_eq!(direction_bin(DIRECTION_OFFSET + 0.01), 0);
+        assert_eq!(direction_bin(DIRECTION_OFFSET - 0.01), 1);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        for _ in 0..10_000 {
+            let phi = wrap_angle(rng.random_range(-PI..PI));
+            let bin = direction_bin(phi);
+            for turn in [0.0, PI, -PI, TAU] {
+                let back = with_direction(phi + turn, bin);
+                let d = wrap_angle(back - phi).abs();
+                assert!(d < 1e-4, "{phi} + {turn} -> {back}");
+            }
+            // The other bin is the opposite direction.
+            assert!((wrap_angle(with_direction(phi, 1 - bin) - phi).abs() - PI).abs() < 1e-4);
+        }
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! The exact multiply-add count of one forward pass at (C, P), the compute axis of every
 //! budget report. Counted: every matrix product (fc0, both layers of each block, the projector,
-//! both heads, and for the streaming variant the LSTM step and its projection, once per call). Not counted: BatchNorm, ReLU, max, mean and concatenation, which are linear in
+//! the heads (class, box, and the direction bins when present), and for the streaming variant the LSTM step and its projection, once per call). Not counted: BatchNorm, ReLU, max, mean and concatenation, which are linear in
 //! the activations and small beside the products.
 
 use crate::nn::StarNetConfig;
@@ -18,7 +18,8 @@ pub fn forward_macs(cfg: &StarNetConfig, c: usize, p: usize) -> u64 {
     let offsets = (cfg.anchors.grid * cfg.anchors.grid) as u64;
     let per = cfg.anchors_per_offset() as u64;
     let projector = f.cell_dim() as u64 * offsets * cfg.d_offset as u64;
-    let heads = offsets * cfg.d_offset as u64 * per * (cfg.num_classes as u64 + 7);
+    let outputs = cfg.num_classes as u64 + 7 + if cfg.direction_classifier { 2 } else { 0 };
+    let heads = offsets * cfg.d_offset as u64 * per * outputs;
     // One LSTM step per call: four gates over [input, hidden], then the projection back.
     let lstm = cfg.lstm_hidden.map_or(0, |h| {
         let (d, h) = (f.cell_dim() as u64, h as u64);

@@ -3,7 +3,9 @@
 //! (direction-invariant, the authors' default) or Huber(wrap Δ) (direction-aware, needed for
 //! APH). Every anchor carries the weight target assignment gave it (`1 / (C · max(1, n_fg))`);
 //! terms are summed over centers, anchors and classes and averaged over the batch.
-//! Total = 3 · (3 · location + 0.3 · dimension + 0.3 · rotation) + classification.
+//! Total = 3 · (3 · location + 0.3 · dimension + 0.3 · rotation) + classification, plus
+//! `direction_weight` · the cross-entropy of the direction bins on the foreground anchors when
+//! the model has the direction classifier (OpenPCDet: weight 0.2, same anchor weights).
 
 use crate::nn::ModelOutput;
 use burn::prelude::*;
@@ -50,6 +52,9 @@ pub struct LossConfig {
     /// Heading comparison.
     #[config(default = "HeadingLoss::Sin")]
     pub heading: HeadingLoss,
+    /// Weight of the direction-bin cross-entropy in the total (OpenPCDet's 0.2).
+    #[config(default = 0.2)]
+    pub direction_weight: f64,
 }
 
 /// Per-anchor targets of a batch, as tensors.
@@ -63,6 +68,8 @@ pub struct LossTargets {
     pub residuals: Tensor<4>,
     /// Regression weight `[B, C, A]` (foreground only).
     pub reg_weight: Tensor<3>,
+    /// Direction bin of the matched box `[B, C, A]` (0.0 or 1.0; see [`crate::coder`]).
+    pub direction: Tensor<3>,
 }
 
 /// Each term of the loss, reported separately.
@@ -78,6 +85,8 @@ pub struct LossTerms {
     pub dimension: Tensor<1>,
     /// Heading residual.
     pub rotation: Tensor<1>,
+    /// Direction-bin cross-entropy (0 without the direction classifier).
+    pub direction: Tensor<1>,
 }
 
 /// Element-wise sigmoid focal loss: `BCE(x, y) · (1 − p_t)^γ · (α y + (1 − α)(1 − y))`, with the
@@ -98,6 +107,14 @@ pub fn huber<const D: usize>(x: Tensor<D>, delta: f64) -> Tensor<D> {
     let quadratic = x.powi_scalar(2) * (0.5 / delta);
     let linear = a - 0.5 * delta;
     quadratic * small.clone() + linear * (small.neg() + 1.0)
+}
+
+/// Two-class softmax cross-entropy of logits `[.., 2]` against the class `y` (0.0 or 1.0)
+/// `[..]`: with `d = l₁ − l₀` it is `softplus(d) − y d`, in the stable form
+/// `max(d, 0) − d y + ln(1 + e^−|d|)`.
+pub fn two_bin_cross_entropy(logits: Tensor<4>, y: Tensor<3>) -> Tensor<3> {
+    let d = (logits.clone().slice_dim(3, 1..2) - logits.slice_dim(3, 0..1)).squeeze_dim::<3>(3);
+    relu(d.clone()) - d.clone() * y + (d.abs().neg().exp() + 1.0).log()
 }
 
 /// Wraps angles to [−π, π).
@@ -128,16 +145,23 @@ pub fn starnet_loss(out: &ModelOutput, t: &LossTargets, cfg: &LossConfig) -> Los
         HeadingLoss::Wrap => wrap_angle(dh),
     };
     let rotation = per_batch(huber(dh, cfg.huber_delta).squeeze_dim::<3>(3), &t.reg_weight);
+    let direction = match &out.dir_logits {
+        Some(d) => per_batch(two_bin_cross_entropy(d.clone(), t.direction.clone()), &t.reg_weight),
+        None => Tensor::zeros([1], &t.reg_weight.device()),
+    };
     let localization = location.clone() * cfg.location_weight
         + dimension.clone() * cfg.dimension_weight
         + rotation.clone() * cfg.rotation_weight;
-    let total = localization * cfg.localization_weight + classification.clone() * cfg.classification_weight;
+    let total = localization * cfg.localization_weight
+        + classification.clone() * cfg.classification_weight
+        + direction.clone() * cfg.direction_weight;
     LossTerms {
         total,
         classification,
         location,
         dimension,
         rotation,
+        direction,
     }
 }
 
@@ -231,6 +255,24 @@ mod tests {
                 "{i}: autodiff {} vs finite difference {fd}",
                 g[i]
             );
+        }
+    }
+
+    #[test]
+    fn two_bin_cross_entropy_matches_the_softmax() {
+        let dev = default_device();
+        let l = [[0.3f32, -1.2], [2.0, 2.5], [-4.0, 6.0]];
+        let y = [1.0f32, 0.0, 1.0];
+        let logits = Tensor::<1>::from_floats(l.as_flattened(), &dev).reshape([1, 1, 3, 2]);
+        let got = scalars(two_bin_cross_entropy(
+            logits,
+            Tensor::<1>::from_floats(y, &dev).reshape([1, 1, 3]),
+        ));
+        for i in 0..3 {
+            let (a, b) = (f64::from(l[i][0]), f64::from(l[i][1]));
+            let z = a.exp() + b.exp();
+            let want = -(if y[i] > 0.5 { b.exp() / z } else { a.exp() / z }).ln();
+            assert!((f64::from(got[i]) - want).abs() < 1e-5, "{i}: {} vs {want}", got[i]);
         }
     }
 

@@ -295,6 +295,11 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     let per_offset = g.ints("per_offset", &[-1, cfg.d_offset as i64]);
     let x = g.op("Reshape", &[&x, &per_offset], &[]); // [C·G², D]
     let cls = w.linear(&mut g, &x, "cls_head");
+    if cfg.direction_classifier {
+        let dir = w.linear(&mut g, &x, "dir_head");
+        let dir_shape = g.ints("dir_shape", &[-1, a as i64, 2]);
+        g.op_into("Reshape", &[&dir, &dir_shape], &[], "dir_logits");
+    }
     let reg = w.linear(&mut g, &x, "box_head");
     let cls_shape = g.ints("cls_shape", &[-1, a as i64, k as i64]);
     let box_shape = g.ints("box_shape", &[-1, a as i64, 7]);
@@ -313,6 +318,9 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     graph.msg(11, &value_info("mask", &[Err("C"), Err("P")]));
     graph.msg(12, &value_info("cls_logits", &[Err("C"), Ok(a), Ok(k)]));
     graph.msg(12, &value_info("box_residuals", &[Err("C"), Ok(a), Ok(7)]));
+    if cfg.direction_classifier {
+        graph.msg(12, &value_info("dir_logits", &[Err("C"), Ok(a), Ok(2)]));
+    }
     let mut opset = Pb::default();
     opset.str(1, "");
     opset.int(2, OPSET);

@@ -33,7 +33,8 @@ fn random_model(cfg: &StarNetConfig) -> starnet_model::nn::StarNet {
 
 #[test]
 fn tract_matches_burn_for_several_budgets() {
-    let cfg = StarNetConfig::small_car();
+    // With the direction classifier, so its third output is checked too.
+    let cfg = StarNetConfig::small_car().with_direction_classifier(true);
     let model = random_model(&cfg);
     let bytes = onnx_model(&model, &cfg);
     let dev = default_device();
@@ -80,6 +81,7 @@ fn tract_matches_burn_for_several_budgets() {
         for (k, (name, want)) in [
             ("cls_logits", burn.cls_logits.clone()),
             ("box_residuals", burn.box_residuals.clone()),
+            ("dir_logits", burn.dir_logits.clone().expect("direction logits")),
         ]
         .into_iter()
         .enumerate()

@@ -45,6 +45,7 @@ fn small_model_overfits_one_frame_and_recovers_its_cars() {
         gather: GatherConfig {
             num_points: 32,
             radius: 3.0,
+            metric: Default::default(),
         },
         ..Default::default()
     };

@@ -55,6 +55,9 @@ pub struct ModelSection {
     /// Hidden width of the streaming LSTM over the slices of a sweep (the streaming paper:
     /// 128); 0: no LSTM.
     pub lstm_hidden: usize,
+    /// A two-bin direction classifier beside the box head (SECOND / OpenPCDet): boxes point
+    /// the right way, which AOS and APH need; the paper has none (false).
+    pub direction_classifier: bool,
 }
 
 /// Streaming (the streaming-detection paper): sweeps cut into azimuth slices, detected slice by
@@ -113,6 +116,8 @@ pub struct LossSection {
     pub classification_weight: f64,
     /// `sin` (direction-invariant) or `wrap` (direction-aware).
     pub heading: HeadingLoss,
+    /// Weight of the direction-bin cross-entropy (with `model.direction_classifier`).
+    pub direction_weight: f64,
 }
 
 /// Post-processing.
@@ -224,6 +229,7 @@ impl Default for ExperimentConfig {
                 d_offset: 128,
                 anchors: AnchorGrid::kitti_car(),
                 lstm_hidden: 0,
+                direction_classifier: false,
             },
             assign: AssignConfig::default(),
             loss: LossSection {
@@ -236,6 +242,7 @@ impl Default for ExperimentConfig {
                 localization_weight: lc.localization_weight,
                 classification_weight: lc.classification_weight,
                 heading: lc.heading,
+                direction_weight: lc.direction_weight,
             },
             nms: NmsSection {
                 iou: vec![0.083],
@@ -287,6 +294,7 @@ impl ExperimentConfig {
             self.data.classes.len(),
         )
         .with_lstm_hidden((self.model.lstm_hidden > 0).then_some(self.model.lstm_hidden))
+        .with_direction_classifier(self.model.direction_classifier)
     }
 
     /// A split of the config's dataset, read with the config's labels.
@@ -307,6 +315,7 @@ impl ExperimentConfig {
             .with_localization_weight(l.localization_weight)
             .with_classification_weight(l.classification_weight)
             .with_heading(l.heading)
+            .with_direction_weight(l.direction_weight)
     }
 
     /// NMS settings per class.
@@ -366,6 +375,22 @@ impl ExperimentConfig {
             return bad(
                 "train.ema_decay",
                 format!("{} is not in [0, 1) (0 turns the EMA off)", self.train.ema_decay),
+            );
+        }
+        let margin = self.augment.object_margin;
+        if !(0.0..=starnet_data::augment::GTDB_CAPTURE_MARGIN).contains(&margin) {
+            return bad(
+                "augment.object_margin",
+                format!(
+                    "{margin} is not in [0, {}] m (the ground-truth database holds points that far out)",
+                    starnet_data::augment::GTDB_CAPTURE_MARGIN
+                ),
+            );
+        }
+        if !(self.pipeline.gather.radius.is_finite() && self.pipeline.gather.radius > 0.0) {
+            return bad(
+                "pipeline.gather.radius",
+                format!("{} is not a positive radius", self.pipeline.gather.radius),
             );
         }
         if self.model.blocks.is_empty() || self.model.anchors.is_empty() {
@@ -545,16 +570,52 @@ fn resolve(mut user: Table, sets: &[String], path: &Path) -> Result<ExperimentCo
     let mut defaults = Table::try_from(ExperimentConfig::default()).expect("the defaults serialise");
     check_keys(&user, &defaults, "", path)?;
     widen_numbers(&mut user, &defaults);
-    merge(&mut defaults, user);
+    let pristine = defaults.clone();
+    merge(&mut defaults, user.clone());
     let cfg: ExperimentConfig = Value::Table(defaults)
         .try_into()
         .map_err(|e: toml::de::Error| TrainError::Config {
             file: path.into(),
-            key: "(value)".into(),
+            key: failing_key(&user, &pristine, "").unwrap_or_else(|| "(value)".into()),
             message: e.message().to_string(),
         })?;
     cfg.validate(path)?;
     Ok(cfg)
+}
+
+/// The first leaf key of `user` that alone, over `defaults`, fails to deserialise (a value of
+/// the right TOML type that the setting does not accept, such as an unknown enum variant): serde's
+/// error does not say where it is.
+fn failing_key(user: &Table, defaults: &Table, prefix: &str) -> Option<String> {
+    user.iter().find_map(|(k, v)| {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            Value::Table(t) if !OPEN_TABLES.contains(&key.as_str()) => failing_key(t, defaults, &key),
+            _ => {
+                let mut one = Table::new();
+                let mut at = &mut one;
+                let parts: Vec<&str> = key.split('.').collect();
+                for p in &parts[..parts.len() - 1] {
+                    at = at
+                        .entry(p.to_string())
+                        .or_insert_with(|| Value::Table(Table::new()))
+                        .as_table_mut()
+                        .expect("just inserted a table");
+                }
+                at.insert(parts[parts.len() - 1].to_string(), v.clone());
+                let mut merged = defaults.clone();
+                merge(&mut merged, one);
+                Value::Table(merged)
+                    .try_into::<ExperimentConfig>()
+                    .is_err()
+                    .then_some(key)
+            }
+        }
+    })
 }
 
 /// The resolved config as TOML (written beside each run).
@@ -674,6 +735,31 @@ mod tests {
         let ok = write(dir.path(), "g.toml", "");
         let e = load_config(&ok, &["train.nope=1".into()]).unwrap_err().to_string();
         assert!(e.contains("train.nope"), "{e}");
+    }
+
+    #[test]
+    fn issue_15_settings_are_checked_and_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let ok = write(dir.path(), "a.toml", "");
+        for (set, key) in [
+            ("augment.object_margin=-0.1", "augment.object_margin"),
+            ("augment.object_margin=0.5", "augment.object_margin"),
+            ("pipeline.gather.radius=0.0", "pipeline.gather.radius"),
+            ("pipeline.gather.metric=\"sphere\"", "pipeline.gather.metric"),
+        ] {
+            let e = load_config(&ok, &[set.into()]).unwrap_err().to_string();
+            assert!(e.contains(key), "{set}: {e}");
+        }
+        let c = load_config(
+            &ok,
+            &[
+                "pipeline.gather.metric=\"cylinder\"".into(),
+                "model.direction_classifier=true".into(),
+            ],
+        )
+        .unwrap();
+        assert_eq!(c.pipeline.gather.metric, starnet_data::sampling::GatherMetric::Cylinder);
+        assert!(c.model_config().direction_classifier);
     }
 
     #[test]

@@ -7,10 +7,11 @@
 //!   order, the network's widths, the anchors and their order, the box coder, the classes, NMS
 //!   and the sampling defaults;
 //! - `model.onnx`: the dense network, `points [C, P, F]` and `mask [C, P]` in, `cls_logits
-//!   [C, A, K]` and `box_residuals [C, A, 7]` out, C and P dynamic, opset 13
-//!   ([`starnet_model::onnx`]);
+//!   [C, A, K]`, `box_residuals [C, A, 7]` and, with the direction classifier, `dir_logits
+//!   [C, A, 2]` out, C and P dynamic, opset 13 ([`starnet_model::onnx`]);
 //! - `golden.safetensors`: a seeded input (`points [C, P, F]`, `mask [C, P]`) and the outputs the
-//!   model gives for it (`cls_logits [C, A, K]`, `box_residuals [C, A, 7]`), for checking a port.
+//!   model gives for it (`cls_logits [C, A, K]`, `box_residuals [C, A, 7]`, `dir_logits
+//!   [C, A, 2]`), for checking a port.
 
 use crate::config::{ExperimentConfig, to_toml};
 use crate::{Result, TrainError};
@@ -20,7 +21,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::ObjectClass;
-use starnet_data::sampling::{AnchorGrid, CenterPoolConfig, CenterZ, NUM_FEATURES, Sampler};
+use starnet_data::sampling::{AnchorGrid, CenterPoolConfig, CenterZ, GatherMetric, NUM_FEATURES, Sampler};
 use starnet_model::export::{NamedTensor, named_tensors, write_safetensors};
 use starnet_model::nn::{ModelInput, StarNet};
 use std::collections::BTreeMap;
@@ -66,6 +67,9 @@ pub struct ModelSpec {
     pub anchors_per_center: usize,
     /// How box residuals decode.
     pub box_coder: &'static str,
+    /// How the direction logits turn a decoded heading (`None`: the model has none, and a
+    /// heading may point either way).
+    pub direction: Option<DirectionSpec>,
     /// Classes K, in the order of the logits.
     pub classes: Vec<ObjectClass>,
     /// Per class: 3D IoU above which a lower-scoring box is suppressed (greedy, per class).
@@ -84,8 +88,19 @@ pub struct ModelSpec {
     pub num_centers: usize,
     /// Points per center P (evaluation default).
     pub num_points: usize,
-    /// Neighbourhood radius, metres (3D ball around the center).
+    /// Neighbourhood radius, metres.
     pub radius: f32,
+    /// What the radius bounds: `ball` (3D distance) or `cylinder` (distance in x, y).
+    pub gather_metric: GatherMetric,
+}
+
+/// The direction classifier's decoding.
+#[derive(Debug, Clone, Serialize)]
+pub struct DirectionSpec {
+    /// Where the two bins meet (radians; and π later).
+    pub offset: f32,
+    /// The rule.
+    pub rule: &'static str,
 }
 
 impl ModelSpec {
@@ -114,6 +129,11 @@ impl ModelSpec {
             box_coder: "d = sqrt(dx_a^2 + dy_a^2); x = x_a + r0*d; y = y_a + r1*d; z = z_a + r2*dz_a; \
                         dx = dx_a*exp(r3); dy = dy_a*exp(r4); dz = dz_a*exp(r5); heading = wrap(heading_a + r6) \
                         into [-pi, pi)",
+            direction: cfg.model.direction_classifier.then(|| DirectionSpec {
+                offset: starnet_model::coder::DIRECTION_OFFSET,
+                rule: "bin = argmax(dir_logits[c, a]); heading = wrap(offset + ((heading - offset) mod pi) + pi*bin) \
+                       into [-pi, pi), after the box coder and before NMS",
+            }),
             classes: cfg.data.classes.clone(),
             nms_iou: cfg.nms.iou.clone(),
             nms_score: cfg.nms.score.clone(),
@@ -124,6 +144,7 @@ impl ModelSpec {
             num_centers: cfg.eval.num_centers,
             num_points: cfg.eval.num_points,
             radius: cfg.pipeline.gather.radius,
+            gather_metric: cfg.pipeline.gather.metric,
         }
     }
 }
@@ -152,12 +173,16 @@ pub fn golden(model: &StarNet, c: usize, p: usize, seed: u64) -> Vec<NamedTensor
     };
     let data = |t: Tensor<4>| t.into_data().iter::<f32>().collect::<Vec<f32>>();
     let [_, _, a, k] = out.cls_logits.dims();
-    vec![
+    let mut tensors = vec![
         named("points", values, vec![c, p, NUM_FEATURES]),
         named("mask", m, vec![c, p]),
         named("cls_logits", data(out.cls_logits), vec![c, a, k]),
         named("box_residuals", data(out.box_residuals), vec![c, a, 7]),
-    ]
+    ];
+    if let Some(d) = out.dir_logits {
+        tensors.push(named("dir_logits", data(d), vec![c, a, 2]));
+    }
+    tensors
 }
 
 /// Writes `model.safetensors`, `model.json`, `model.onnx` and `golden.safetensors` for `model`
@@ -263,5 +288,11 @@ mod tests {
         let a = spec["anchors_per_center"].as_u64().unwrap() as usize;
         assert_eq!(golden_file["cls_logits"].shape, [16, a, cfg.data.classes.len()]);
         assert_eq!(spec["network"]["cell_dim"], 128);
+        assert_eq!(
+            golden_file.contains_key("dir_logits"),
+            cfg.model.direction_classifier,
+            "the golden outputs hold the direction logits exactly when the model has them"
+        );
+        assert_eq!(spec["direction"].is_null(), !cfg.model.direction_classifier);
     }
 }

@@ -1,8 +1,10 @@
 //! The ground-truth database for copy-paste augmentation: every labelled object of the train
-//! split with the LiDAR points inside its box, at their original positions (lingvo pastes
-//! objects at their original pose), written to one versioned binary file.
+//! split with the LiDAR points inside its box grown by [`GTDB_CAPTURE_MARGIN`], at their original
+//! positions (lingvo pastes objects at their original pose), written to one versioned binary
+//! file. The paste step keeps those within the configured object margin
+//! ([`GtEntry::points_within`]), so the file does not depend on that setting.
 //!
-//! File layout (little-endian): the 8-byte magic `STNGTDB\0`, a `u32` format version (1), a
+//! File layout (little-endian): the 8-byte magic `STNGTDB\0`, a `u32` format version (2), a
 //! `u32` entry count, then per entry: `u8` class (index in [`ObjectClass::ALL`]), `i8`
 //! difficulty (0 easy, 1 moderate, 2 hard, −1 none), `u16` frame-id length and the id's bytes,
 //! 7 × `f32` box `[x y z dx dy dz heading]`, `u32` point count N and N × 4 × `f32` points.
@@ -16,7 +18,10 @@ use std::sync::Mutex;
 
 const MAGIC: &[u8; 8] = b"STNGTDB\0";
 /// Format version written and accepted.
-pub const GTDB_VERSION: u32 = 1;
+pub const GTDB_VERSION: u32 = 2;
+/// How far beyond its box (sides and top, [`Box3d::grown`]) an entry's points are captured: the
+/// largest object margin the paste step can use.
+pub const GTDB_CAPTURE_MARGIN: f32 = 0.25;
 
 /// One object of the database.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,8 +34,17 @@ pub struct GtEntry {
     pub difficulty: Option<Difficulty>,
     /// Box, LiDAR frame.
     pub b: Box3d,
-    /// Points inside the box, absolute LiDAR coordinates of the source frame.
+    /// Points inside the box grown by [`GTDB_CAPTURE_MARGIN`], absolute LiDAR coordinates of
+    /// the source frame.
     pub points: Vec<Point>,
+}
+
+impl GtEntry {
+    /// The entry's points inside its box grown by `margin` (at most [`GTDB_CAPTURE_MARGIN`]).
+    pub fn points_within(&self, margin: f32) -> impl Iterator<Item = &Point> {
+        let grown = self.b.grown(margin.min(GTDB_CAPTURE_MARGIN));
+        self.points.iter().filter(move |p| grown.contains([p[0], p[1], p[2]]))
+    }
 }
 
 /// All entries.
@@ -56,6 +70,7 @@ impl GtDatabase {
                     difficulty: o.difficulty(),
                     b,
                     points: b
+                        .grown(GTDB_CAPTURE_MARGIN)
                         .points_inside(&frame.points)
                         .into_iter()
                         .map(|k| frame.points[k])
@@ -166,6 +181,17 @@ impl GtDatabase {
         atomic_write(path, &self.encode())
     }
 
+    /// Whether `path` holds a database of this build's format version (a database written by an
+    /// older build is rebuilt rather than read).
+    pub fn is_current(path: &Path) -> bool {
+        let mut head = [0u8; 12];
+        std::fs::File::open(path)
+            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+            .is_ok()
+            && head[..8] == *MAGIC
+            && head[8..12] == GTDB_VERSION.to_le_bytes()
+    }
+
     /// Reads a database file.
     pub fn read(path: &Path) -> Result<Self> {
         Self::decode(&read(path)?, path)
@@ -239,6 +265,19 @@ mod tests {
         let bytes = db.encode();
         assert_eq!(&bytes[..8], MAGIC);
         assert_eq!(GtDatabase::decode(&bytes, Path::new("db")).unwrap(), db);
+    }
+
+    #[test]
+    fn only_this_versions_files_are_current() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("gt_database.bin");
+        assert!(!GtDatabase::is_current(&path));
+        sample_db().write(&path).unwrap();
+        assert!(GtDatabase::is_current(&path));
+        let mut old = sample_db().encode();
+        old[8..12].copy_from_slice(&1u32.to_le_bytes());
+        std::fs::write(&path, old).unwrap();
+        assert!(!GtDatabase::is_current(&path));
     }
 
     #[test]

@@ -8,7 +8,7 @@ mod gtdb;
 mod paste;
 mod transforms;
 
-pub use gtdb::{GTDB_VERSION, GtDatabase, GtEntry};
+pub use gtdb::{GTDB_CAPTURE_MARGIN, GTDB_VERSION, GtDatabase, GtEntry};
 pub use paste::{DbPasteConfig, paste_from_database};
 pub use transforms::{Scene, flip_y, rotate_box, rotate_z, scale, shift_z};
 
@@ -34,6 +34,12 @@ pub struct UniformStep {
 pub struct AugmentConfig {
     /// Ground-truth database paste.
     pub db_paste: DbPasteConfig,
+    /// How far beyond its box an object's points reach, metres (sides and top,
+    /// [`crate::Box3d::grown`]): the points that the per-box rotation turns and the paste step
+    /// copies and clears. Range noise scatters about half of an object's returns up to a few
+    /// centimetres outside its tight box, so the tight box (0.0, lingvo's) tears objects
+    /// apart. Default 0.1; at most [`GTDB_CAPTURE_MARGIN`].
+    pub object_margin: f32,
     /// Per-box rotation about the box centre, radians (π/20).
     pub box_rotation: UniformStep,
     /// Whether to mirror y, and with which probability (0.5).
@@ -60,6 +66,7 @@ impl Default for AugmentConfig {
     fn default() -> Self {
         Self {
             db_paste: DbPasteConfig::default(),
+            object_margin: 0.1,
             box_rotation: UniformStep {
                 enabled: true,
                 max: PI / 20.0,
@@ -122,11 +129,32 @@ pub struct AugmentDraw {
     pub z_shift: f32,
 }
 
+impl AugmentDraw {
+    /// `points` of the augmented scene moved back by the inverse of the global steps (z shift,
+    /// scaling, rotation, flip), in the same order: where the sensor recorded them. What depends
+    /// on the recording rather than on the augmentation (the camera frustum that bounds the
+    /// labels, the ground band) is decided there.
+    pub fn undo_global(&self, points: &[Point]) -> Vec<Point> {
+        let mut s = Scene {
+            points: points.to_vec(),
+            boxes: Vec::new(),
+            classes: Vec::new(),
+        };
+        shift_z(&mut s, -self.z_shift);
+        scale(&mut s, 1.0 / self.scale);
+        rotate_z(&mut s, -self.rotation);
+        if self.flipped {
+            flip_y(&mut s);
+        }
+        s.points
+    }
+}
+
 /// Augments a scene in place (all steps but the ring dropout, which [`ring_dropout`] applies
 /// after center selection).
 pub fn augment(scene: &mut Scene, cfg: &AugmentConfig, db: Option<&GtDatabase>, rng: &mut impl Rng) -> AugmentDraw {
     let pasted = match db {
-        Some(db) if cfg.db_paste.enabled => paste_from_database(scene, db, &cfg.db_paste, rng),
+        Some(db) if cfg.db_paste.enabled => paste_from_database(scene, db, &cfg.db_paste, cfg.object_margin, rng),
         _ => Vec::new(),
     };
     let uniform = |step: &UniformStep, rng: &mut dyn rand::RngCore| {
@@ -141,7 +169,7 @@ pub fn augment(scene: &mut Scene, cfg: &AugmentConfig, db: Option<&GtDatabase>, 
         .collect();
     for (i, &a) in box_rotations.iter().enumerate() {
         if a != 0.0 {
-            rotate_box(scene, i, a);
+            rotate_box(scene, i, a, cfg.object_margin);
         }
     }
     let flipped = cfg.flip_y && rng.random::<f32>() < cfg.flip_probability;
@@ -240,7 +268,7 @@ mod tests {
                 boxes: vec![Box3d::new(5.0, 1.0, -1.0, 4.0, 2.0, 1.5, 0.0)],
                 classes: vec![ObjectClass::Car],
             };
-            rotate_box(&mut r, 0, d.box_rotations[0]);
+            rotate_box(&mut r, 0, d.box_rotations[0], cfg.object_margin);
             if d.flipped {
                 flip_y(&mut r);
             }
@@ -250,6 +278,34 @@ mod tests {
             assert_eq!(r, s);
         }
         assert!((70..130).contains(&flips), "p = 0.5 flips: {flips}");
+    }
+
+    #[test]
+    fn undoing_the_global_steps_restores_the_recorded_points() {
+        let cfg = AugmentConfig {
+            db_paste: DbPasteConfig {
+                enabled: false,
+                ..Default::default()
+            },
+            box_rotation: UniformStep {
+                enabled: false,
+                max: 0.0,
+            },
+            flip_probability: 1.0,
+            ..AugmentConfig::default()
+        };
+        let points = vec![[12.0, 3.0, -1.0, 0.5], [-4.0, 7.5, 0.2, 0.1]];
+        let mut s = Scene {
+            points: points.clone(),
+            boxes: vec![],
+            classes: vec![],
+        };
+        let d = augment(&mut s, &cfg, None, &mut rand_chacha::ChaCha8Rng::seed_from_u64(4));
+        assert!(d.flipped && d.rotation != 0.0 && d.scale != 1.0 && d.z_shift != 0.0);
+        assert!(s.points.iter().zip(&points).all(|(a, b)| (a[0] - b[0]).abs() > 1e-3));
+        for (a, b) in d.undo_global(&s.points).iter().zip(&points) {
+            assert!(a.iter().zip(b).all(|(u, v)| (u - v).abs() < 1e-4), "{a:?} vs {b:?}");
+        }
     }
 
     #[test]

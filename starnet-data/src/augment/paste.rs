@@ -39,8 +39,15 @@ impl Default for DbPasteConfig {
     }
 }
 
-/// Pastes database objects into `scene`; returns the indices of the pasted entries.
-pub fn paste_from_database(scene: &mut Scene, db: &GtDatabase, cfg: &DbPasteConfig, rng: &mut impl Rng) -> Vec<usize> {
+/// Pastes database objects into `scene` (each with its points within `margin` of its box,
+/// [`crate::Box3d::grown`]); returns the indices of the pasted entries.
+pub fn paste_from_database(
+    scene: &mut Scene,
+    db: &GtDatabase,
+    cfg: &DbPasteConfig,
+    margin: f32,
+    rng: &mut impl Rng,
+) -> Vec<usize> {
     let mut pasted = Vec::new();
     for (&class, &target) in &cfg.max_per_class {
         let have = scene.classes.iter().filter(|c| **c == class).count();
@@ -50,7 +57,7 @@ pub fn paste_from_database(scene: &mut Scene, db: &GtDatabase, cfg: &DbPasteConf
         }
         let min_points = cfg.min_points.get(&class).copied().unwrap_or(0);
         let mut candidates: Vec<usize> = (0..db.entries.len())
-            .filter(|&i| db.entries[i].class == class && db.entries[i].points.len() >= min_points)
+            .filter(|&i| db.entries[i].class == class && db.entries[i].points_within(margin).count() >= min_points)
             .collect();
         // Try up to three candidates per wanted object, in random order, without replacement.
         let tries = candidates.len().min(3 * want);
@@ -68,7 +75,7 @@ pub fn paste_from_database(scene: &mut Scene, db: &GtDatabase, cfg: &DbPasteConf
                 continue;
             }
             if cfg.remove_covered_points {
-                let inside = e.b.points_inside(&scene.points);
+                let inside = e.b.grown(margin).points_inside(&scene.points);
                 let mut keep = vec![true; scene.points.len()];
                 inside.into_iter().for_each(|k| keep[k] = false);
                 let mut k = 0;
@@ -77,7 +84,7 @@ pub fn paste_from_database(scene: &mut Scene, db: &GtDatabase, cfg: &DbPasteConf
                     keep[k - 1]
                 });
             }
-            scene.points.extend_from_slice(&e.points);
+            scene.points.extend(e.points_within(margin));
             scene.boxes.push(e.b);
             scene.classes.push(class);
             pasted.push(i);
@@ -136,7 +143,7 @@ mod tests {
                 boxes: vec![existing],
                 classes: vec![ObjectClass::Car],
             };
-            let pasted = paste_from_database(&mut scene, &db, &DbPasteConfig::default(), &mut rng);
+            let pasted = paste_from_database(&mut scene, &db, &DbPasteConfig::default(), 0.1, &mut rng);
             assert!(!pasted.is_empty() && scene.boxes.len() <= 15);
             for (i, a) in scene.boxes.iter().enumerate() {
                 for b in &scene.boxes[i + 1..] {
@@ -171,6 +178,7 @@ mod tests {
                 &mut scene,
                 &db(),
                 &DbPasteConfig::default(),
+                0.1,
                 &mut rand_chacha::ChaCha8Rng::seed_from_u64(1)
             )
             .is_empty()

@@ -60,11 +60,12 @@ pub fn shift_z(scene: &mut Scene, dz: f32) {
     scene.boxes.iter_mut().for_each(|b| b.z += dz);
 }
 
-/// Rotates box `i` and the points inside it by `angle` about the box's centre. Inverse:
-/// `rotate_box(i, −angle)` (the same points are inside the rotated box).
-pub fn rotate_box(scene: &mut Scene, i: usize, angle: f32) {
+/// Rotates box `i` and the points inside it grown by `margin` ([`Box3d::grown`]: the object's
+/// returns scatter about its surface) by `angle` about the box's centre. Inverse:
+/// `rotate_box(i, −angle, margin)` (the same points are inside the rotated box).
+pub fn rotate_box(scene: &mut Scene, i: usize, angle: f32, margin: f32) {
     let b = scene.boxes[i];
-    for k in b.points_inside(&scene.points) {
+    for k in b.grown(margin).points_inside(&scene.points) {
         let p = &mut scene.points[k];
         let (x, y) = rot(p[0] - b.x, p[1] - b.y, angle);
         (p[0], p[1]) = (x + b.x, y + b.y);
@@ -142,7 +143,7 @@ mod tests {
             ("flip_y", Box::new(flip_y)),
             ("scale", Box::new(|s| scale(s, 1.05))),
             ("shift_z", Box::new(|s| shift_z(s, 0.3))),
-            ("rotate_box", Box::new(|s| rotate_box(s, 0, 0.15))),
+            ("rotate_box", Box::new(|s| rotate_box(s, 0, 0.15, 0.1))),
         ];
         for (name, f) in cases {
             let mut t = s.clone();
@@ -163,8 +164,8 @@ mod tests {
             (Box::new(|s| scale(s, 0.95)), Box::new(|s| scale(s, 1.0 / 0.95))),
             (Box::new(|s| shift_z(s, -0.2)), Box::new(|s| shift_z(s, 0.2))),
             (
-                Box::new(|s| rotate_box(s, 1, 0.1)),
-                Box::new(|s| rotate_box(s, 1, -0.1)),
+                Box::new(|s| rotate_box(s, 1, 0.1, 0.1)),
+                Box::new(|s| rotate_box(s, 1, -0.1, 0.1)),
             ),
         ];
         for (f, g) in pairs {

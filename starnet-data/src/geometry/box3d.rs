@@ -134,6 +134,20 @@ impl Box3d {
         u.abs() <= 0.5 * self.dx + EPS && v.abs() <= 0.5 * self.dy + EPS && w.abs() <= 0.5 * self.dz + EPS
     }
 
+    /// The box grown by `margin` metres on its four sides and its top, its bottom left where it
+    /// is. Simulated and real returns of an object scatter a few centimetres about its surface
+    /// (range noise), so the points *of* an object are those inside a slightly grown box; the
+    /// bottom stays put so that the ground under it is not taken. `grown(−m)` undoes `grown(m)`.
+    pub fn grown(&self, margin: f32) -> Self {
+        Self {
+            z: self.z + 0.5 * margin,
+            dx: self.dx + 2.0 * margin,
+            dy: self.dy + 2.0 * margin,
+            dz: self.dz + margin,
+            ..*self
+        }
+    }
+
     /// Indices of the points of `cloud` inside the box.
     pub fn points_inside(&self, cloud: &[Point]) -> Vec<usize> {
         let r2 = {
@@ -228,6 +242,28 @@ mod tests {
         let b = Box3d::new(0.0, 0.0, 0.0, 4.0, 2.0, 1.0, std::f32::consts::FRAC_PI_2);
         let [x, y] = b.corners_bev()[0]; // front-right = local (2, -1) -> world (1, 2)
         assert!((x - 1.0).abs() < 1e-6 && (y - 2.0).abs() < 1e-6, "{x} {y}");
+    }
+
+    #[test]
+    fn growing_keeps_the_bottom_and_round_trips() {
+        let b = Box3d::new(5.0, 1.0, -1.0, 4.0, 2.0, 1.5, 0.7);
+        let g = b.grown(0.1);
+        assert!((g.z_range().0 - b.z_range().0).abs() < 1e-6);
+        assert!((g.z_range().1 - b.z_range().1 - 0.1).abs() < 1e-6);
+        assert!((g.dx - 4.2).abs() < 1e-6 && (g.dy - 2.2).abs() < 1e-6);
+        let back = g.grown(-0.1);
+        assert!(
+            b.to_array()
+                .iter()
+                .zip(back.to_array())
+                .all(|(a, c)| (a - c).abs() < 1e-6)
+        );
+        // 5 cm beyond the front face, in the box's frame: outside the box, inside the grown one;
+        // 2 cm below the bottom: outside both.
+        let front = b.from_local([2.05, 0.0, 0.0]);
+        let below = b.from_local([0.0, 0.0, -0.77]);
+        assert!(!b.contains(front) && g.contains(front));
+        assert!(!b.contains(below) && !g.contains(below));
     }
 
     #[test]

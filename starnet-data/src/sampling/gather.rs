@@ -1,5 +1,6 @@
 //! Neighbourhoods (StarNet §3.2): for each center, P points drawn uniformly at random without
-//! replacement among those within R (3D distance) of it, re-centred, padded and masked. Points
+//! replacement among those within R of it (3D distance as in the paper, or the horizontal
+//! distance: [`GatherMetric`]), re-centred, padded and masked. Points
 //! are found through a spatial hash grid of R-sized cells in (x, y), never a dense C × N
 //! distance matrix.
 
@@ -11,13 +12,40 @@ use serde::{Deserialize, Serialize};
 /// Per-point input features F: `(x − cx, y − cy, z − cz, reflectance)`.
 pub const NUM_FEATURES: usize = 4;
 
-/// Neighbourhood size and radius.
+/// How the distance from a center is measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GatherMetric {
+    /// 3D distance: a ball (the paper's).
+    #[default]
+    Ball,
+    /// Distance in bird's-eye view (x, y): a vertical cylinder. Centers sit at z = 0 by default,
+    /// about 1 m above a car's middle, so a ball of radius R reaches only about 0.9 R sideways
+    /// at car height; the cylinder reaches R at every height.
+    Cylinder,
+}
+
+impl GatherMetric {
+    /// Squared distance of offset `(dx, dy, dz)`.
+    pub fn distance2(self, dx: f32, dy: f32, dz: f32) -> f32 {
+        match self {
+            Self::Ball => dx * dx + dy * dy + dz * dz,
+            Self::Cylinder => dx * dx + dy * dy,
+        }
+    }
+}
+
+/// Neighbourhood size, radius and metric.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct GatherConfig {
     /// Points per center P.
     pub num_points: usize,
-    /// Radius R (m), 3D distance.
+    /// Radius R (m).
     pub radius: f32,
+    /// The distance R bounds (`ball`, the paper's, or `cylinder`).
+    #[serde(default)]
+    pub metric: GatherMetric,
 }
 
 /// The gathered neighbourhoods of C centers, ready to batch.
@@ -103,8 +131,9 @@ impl SpatialGrid {
         }
     }
 
-    /// Appends to `out` the indices of the points within `radius` (3D) of `c`, in a fixed order.
-    pub fn within(&self, c: [f32; 3], radius: f32, out: &mut Vec<u32>) {
+    /// Appends to `out` the indices of the points within `radius` of `c` by `metric`, in a
+    /// fixed order.
+    pub fn within(&self, c: [f32; 3], radius: f32, metric: GatherMetric, out: &mut Vec<u32>) {
         let r2 = radius * radius;
         let range = |a: usize| {
             let lo = ((c[a] - radius - self.origin[a]) / self.cell).floor().max(0.0) as usize;
@@ -133,7 +162,7 @@ impl SpatialGrid {
             for k in s..e {
                 let p = &self.sorted[k];
                 let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
-                if dx * dx + dy * dy + dz * dz <= r2 {
+                if metric.distance2(dx, dy, dz) <= r2 {
                     out.push(self.order[k]);
                 }
             }
@@ -167,7 +196,7 @@ pub fn gather_with_grid(
     let mut candidates = Vec::new();
     for (c, center) in centers.xyz.iter().enumerate() {
         candidates.clear();
-        grid.within(*center, cfg.radius, &mut candidates);
+        grid.within(*center, cfg.radius, cfg.metric, &mut candidates);
         // A uniform random subset without replacement: the first k of a partial shuffle.
         let k = candidates.len().min(p_n);
         for i in 0..k {
@@ -218,7 +247,7 @@ mod tests {
         let mut got = Vec::new();
         for c in [[0.0, 0.0, 0.0], [19.5, -19.5, -1.0], [3.3, 7.1, 0.5]] {
             got.clear();
-            grid.within(c, 2.0, &mut got);
+            grid.within(c, 2.0, GatherMetric::Ball, &mut got);
             got.sort();
             let want: Vec<u32> = (0..pts.len() as u32)
                 .filter(|&i| {
@@ -244,16 +273,35 @@ mod tests {
             [60.0, 60.0, 0.0],
             [20.5, 20.5, 0.0],
         ] {
-            grid.within(c, 0.3, &mut got);
+            grid.within(c, 0.3, GatherMetric::Ball, &mut got);
         }
         assert!(got.is_empty(), "{got:?}");
         // Just inside the edge still finds the edge points.
-        grid.within([19.9, 19.9, 0.0], 3.0, &mut got);
+        grid.within([19.9, 19.9, 0.0], 3.0, GatherMetric::Ball, &mut got);
         let want = pts
             .iter()
             .filter(|p| (p[0] - 19.9).powi(2) + (p[1] - 19.9).powi(2) + p[2].powi(2) <= 9.0)
             .count();
         assert_eq!(got.len(), want);
+    }
+
+    #[test]
+    fn the_cylinder_ignores_height() {
+        let pts = cloud(5000);
+        let grid = SpatialGrid::new(&pts, 1.0);
+        let c = [2.0, -3.0, 4.0];
+        let mut got = Vec::new();
+        grid.within(c, 1.5, GatherMetric::Cylinder, &mut got);
+        got.sort();
+        let want: Vec<u32> = (0..pts.len() as u32)
+            .filter(|&i| (pts[i as usize][0] - 2.0).hypot(pts[i as usize][1] + 3.0) <= 1.5)
+            .collect();
+        // The cloud lies 3–6 m below c: the ball would hold nothing.
+        assert!(want.len() > 20);
+        assert_eq!(got, want);
+        got.clear();
+        grid.within(c, 1.5, GatherMetric::Ball, &mut got);
+        assert!(got.is_empty());
     }
 
     #[test]
@@ -265,13 +313,14 @@ mod tests {
         let cfg = GatherConfig {
             num_points: 32,
             radius: 1.0,
+            metric: GatherMetric::Ball,
         };
         let n = gather(&pts, &centers, &cfg, &mut rng);
         let grid = SpatialGrid::new(&pts, 1.0);
         let mut all = Vec::new();
         for c in 0..64 {
             all.clear();
-            grid.within(centers.xyz[c], 1.0, &mut all);
+            grid.within(centers.xyz[c], 1.0, GatherMetric::Ball, &mut all);
             assert_eq!(n.count(c), all.len().min(32), "center {c}");
             let mut idx: Vec<u32> = (0..32)
                 .filter(|&s| n.mask[c * 32 + s])
@@ -302,6 +351,7 @@ mod tests {
         let cfg = GatherConfig {
             num_points: 5,
             radius: 1.0,
+            metric: GatherMetric::Ball,
         };
         let mut hits = [0u32; 10];
         let mut rng = ChaCha8Rng::seed_from_u64(3);

@@ -41,6 +41,7 @@ impl Default for PipelineConfig {
             gather: GatherConfig {
                 num_points: 64,
                 radius: 3.75,
+                metric: super::GatherMetric::Ball,
             },
         }
     }
@@ -91,8 +92,16 @@ pub fn prepare_frame(
         classes,
     };
     let draw = augmentation.map(|a| augment(&mut scene, a.config, a.database, rng));
-    // Like lingvo, the frustum test uses the frame's own calibration on the augmented points.
-    let pool = center_pool(&scene.points, &cfg.pool, Some((&frame.calib, frame.image_size)));
+    // The pool is a property of the recording (the camera view that bounds the labels, the
+    // ground band), so it is decided where the sensor saw each point: a globally rotated cloud
+    // tested against the frame's own camera would drop a quarter of its labelled cars from the
+    // pool. (OpenPCDet crops to the camera view before it augments; lingvo tests afterwards.)
+    let recorded = draw.as_ref().map(|d| d.undo_global(&scene.points));
+    let pool = center_pool(
+        recorded.as_deref().unwrap_or(&scene.points),
+        &cfg.pool,
+        Some((&frame.calib, frame.image_size)),
+    );
     let centers = sample_centers(
         &scene.points,
         &pool,

@@ -1,6 +1,7 @@
 //! The StarNet model (paper §3.3, lingvo `starnet.ModelV2`): featurizer → projector (BN →
 //! Linear(cell → G²·D) → ReLU, one D-dim feature per grid offset) → heads shared across offsets:
-//! class logits (bias −4.595, a 0.01 prior) and box residuals (zero-initialised).
+//! class logits (bias −4.595, a 0.01 prior), box residuals (zero-initialised) and, optionally,
+//! two direction-bin logits per anchor (SECOND's direction classifier, [`crate::coder`]).
 //!
 //! The streaming variant adds a [`SliceLstm`] between featurizer and projector
 //! ([`StarNet::forward_slices`]); without it every center is independent of the others.
@@ -33,6 +34,9 @@ pub struct ModelOutput {
     pub cls_logits: Tensor<4>,
     /// Box residuals `[B, C, A, 7]` (see [`crate::coder`]).
     pub box_residuals: Tensor<4>,
+    /// Direction-bin logits `[B, C, A, 2]` ([`crate::coder::direction_bin`]), when the model
+    /// has the direction classifier.
+    pub dir_logits: Option<Tensor<4>>,
 }
 
 /// Configuration of [`StarNet`].
@@ -49,6 +53,10 @@ pub struct StarNetConfig {
     /// Hidden width of the streaming LSTM over slices (the paper: 128); `None`: no LSTM.
     #[config(default = "None")]
     pub lstm_hidden: Option<usize>,
+    /// A two-bin direction classifier beside the box head (SECOND / OpenPCDet), so that boxes
+    /// point the right way; the paper has none.
+    #[config(default = false)]
+    pub direction_classifier: bool,
 }
 
 /// Logit of the classification prior 0.01: ln(0.01 / 0.99).
@@ -83,12 +91,16 @@ impl StarNetConfig {
         )));
         let mut box_head = linear(self.d_offset, per * 7, false, device);
         box_head.weight = Param::from_tensor(Tensor::zeros([self.d_offset, per * 7], device));
+        let dir_head = self
+            .direction_classifier
+            .then(|| linear(self.d_offset, per * 2, true, device));
         StarNet {
             featurizer: self.featurizer.init(device),
             proj_bn: MaskedBatchNormConfig::new(cell).init(device),
             proj: linear(cell, offsets * self.d_offset, true, device),
             cls_head,
             box_head,
+            dir_head,
             lstm: self
                 .lstm_hidden
                 .map(|h| SliceLstmConfig::new(cell).with_d_hidden(h).init(device)),
@@ -106,6 +118,7 @@ pub struct StarNet {
     proj: Linear,
     cls_head: Linear,
     box_head: Linear,
+    dir_head: Option<Linear>,
     lstm: Option<SliceLstm>,
     d_offset: usize,
     num_classes: usize,
@@ -117,7 +130,8 @@ impl StarNet {
     ///
     /// # Shapes
     /// - input: points `[B, C, P, F]`, mask `[B, C, P]`, center_valid `[B, C]`
-    /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`
+    /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`, dir_logits
+    ///   `[B, C, A, 2]`
     pub fn forward(&self, input: ModelInput) -> ModelOutput {
         self.forward_slices(input, 1, None).0
     }
@@ -159,7 +173,8 @@ impl StarNet {
     ///
     /// # Shapes
     /// - cell: `[B, C, cell]`, center_valid `[B, C]`
-    /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`
+    /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`, dir_logits
+    ///   `[B, C, A, 2]`
     fn head(&self, cell: Tensor<3>, center_valid: Tensor<2>) -> ModelOutput {
         let [b, c, d_cell] = cell.dims();
         let rows = self
@@ -170,12 +185,19 @@ impl StarNet {
         let offsets = width / self.d_offset;
         let f = per_offset.reshape([b * c * offsets, self.d_offset]); // [BC·G², D]
         let cls = self.cls_head.forward(f.clone()); // [BC·G², R·Pr·K]
+        let dir = self.dir_head.as_ref().map(|h| h.forward(f.clone())); // [BC·G², R·Pr·2]
         let reg = self.box_head.forward(f); // [BC·G², R·Pr·7]
         let per = cls.dims()[1] / self.num_classes;
         ModelOutput {
             cls_logits: cls.reshape([b, c, offsets * per, self.num_classes]),
             box_residuals: reg.reshape([b, c, offsets * per, 7]),
+            dir_logits: dir.map(|d| d.reshape([b, c, offsets * per, 2])),
         }
+    }
+
+    /// Whether the model has the direction classifier.
+    pub fn has_direction_classifier(&self) -> bool {
+        self.dir_head.is_some()
     }
 
     /// Whether the model has the streaming LSTM.
@@ -207,6 +229,13 @@ mod tests {
         let out = cfg.init(&dev).forward(input(&dev, 2, 8, 16, 10));
         assert_eq!(out.cls_logits.dims(), [2, 8, 100, 1]);
         assert_eq!(out.box_residuals.dims(), [2, 8, 100, 7]);
+        assert!(out.dir_logits.is_none());
+        let with_dir = StarNetConfig::small_car().with_direction_classifier(true).init(&dev);
+        let d = with_dir
+            .forward(input(&dev, 2, 8, 16, 10))
+            .dir_logits
+            .expect("direction logits");
+        assert_eq!(d.dims(), [2, 8, 100, 2]);
         // The box head starts at zero.
         assert!(out.box_residuals.into_data().iter::<f32>().all(|v| v == 0.0));
         // Without real points every feature is 0, so the logits are the class bias: the prior.

@@ -88,7 +88,7 @@ mod tests {
         let bins = ap_by_angle(&frames, ObjectClass::Car);
         let counts: Vec<usize> = bins.iter().map(|b| b.num_objects).collect();
         assert_eq!(counts, [0, 1, 0, 1, 0]);
-        assert!((bins[1].ap - 100.0).abs() < 1e-9);
+        assert!((bins[1].ap - 100.0).abs() < 1e-4); // the Waymo library integrates in f32
         assert_eq!(bins[3].ap, 0.0);
     }
 }

@@ -48,14 +48,14 @@ impl Budget {
         self.target.count(self.num_centers)
     }
 
-    /// `base` (the pool, sampler, center z and radius) at this budget.
+    /// `base` (the pool, sampler, center z, radius and metric) at this budget.
     pub fn pipeline(&self, base: &PipelineConfig) -> PipelineConfig {
         PipelineConfig {
             num_centers: self.num_centers,
             target: self.target,
             gather: GatherConfig {
                 num_points: self.num_points,
-                radius: base.gather.radius,
+                ..base.gather
             },
             ..base.clone()
         }

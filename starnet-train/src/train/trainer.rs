@@ -84,7 +84,7 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
         )?;
         bar.finish_and_clear();
     }
-    if cfg.augment.db_paste.enabled && !database_path(root).is_file() {
+    if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&database_path(root)) {
         crate::prepare::run_prepare(root, &cfg.data.train_split)?;
     }
     Ok(())
@@ -267,6 +267,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
             &terms.location,
             &terms.dimension,
             &terms.rotation,
+            &terms.direction,
         ]
         .iter()
         .map(|t| (*t).clone().into_scalar::<f32>())
@@ -288,7 +289,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
         let fps = batch as f64 / clock.elapsed().as_secs_f64();
         clock = Instant::now();
         let epoch = state.step as f64 / steps_per_epoch as f64;
-        let line = serde_json::json!({"step": state.step, "epoch": epoch, "lr": lr, "loss": values[0], "classification": values[1], "location": values[2], "dimension": values[3], "rotation": values[4], "grad_norm": grad_norm, "frames_per_s": fps});
+        let line = serde_json::json!({"step": state.step, "epoch": epoch, "lr": lr, "loss": values[0], "classification": values[1], "location": values[2], "dimension": values[3], "rotation": values[4], "direction": values[5], "grad_norm": grad_norm, "frames_per_s": fps});
         writeln!(log, "{line}").map_err(|e| starnet_data::DataError::io(&log_path, e))?;
         bar.set_position(state.step);
         bar.set_message(format!(
