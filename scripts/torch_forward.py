@@ -32,8 +32,15 @@ for i in range(len(spec["network"]["blocks"])):
     x = torch.relu(lin(bn(x, p + ".bn1", m), p + ".fc1"))
     h = torch.relu(lin(bn(x, p + ".bn2", m), p + ".fc2"))
     read.append(mean(h))
-x = torch.relu(lin(bn(torch.cat(read, -1), "proj_bn"), "proj")).reshape(-1, spec["network"]["d_offset"])
-c = len(pts)
-cls = lin(x, "cls_head").reshape(c, spec["anchors_per_center"], -1)
-box = lin(x, "box_head").reshape(c, spec["anchors_per_center"], 7)
+cell = bn(torch.cat(read, -1), "proj_bn")
+x = torch.relu(lin(cell, "proj")).reshape(-1, spec["network"]["d_offset"])
+c, a = len(pts), spec["anchors_per_center"]
+cls = lin(x, "cls_head").reshape(c, a, -1)
+box = lin(x, "box_head").reshape(c, a, 7)
+if spec["network"].get("shared_size"):  # one size per center and anchor shape, the same at every offset
+    size = lin(cell, "size_head").reshape(c, 1, -1, 3)
+    box = box.reshape(c, -1, size.shape[2], 7)
+    box = torch.cat([box[..., :3], size.expand(-1, box.shape[1], -1, -1), box[..., 6:]], -1).reshape(c, a, 7)
 print("torch port vs golden: cls", float((cls - g["cls_logits"]).abs().max()), "box", float((box - g["box_residuals"]).abs().max()))
+if spec.get("direction"):
+    print("  dir", float((lin(x, "dir_head").reshape(c, a, 2) - g["dir_logits"]).abs().max()))

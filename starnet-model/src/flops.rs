@@ -19,7 +19,12 @@ pub fn forward_macs(cfg: &StarNetConfig, c: usize, p: usize) -> u64 {
     let per = cfg.anchors_per_offset() as u64;
     let projector = f.cell_dim() as u64 * offsets * cfg.d_offset as u64;
     let outputs = cfg.num_classes as u64 + 7 + if cfg.direction_classifier { 2 } else { 0 };
-    let heads = offsets * cfg.d_offset as u64 * per * outputs;
+    let heads = offsets * cfg.d_offset as u64 * per * outputs
+        + if cfg.shared_size {
+            f.cell_dim() as u64 * per * 3
+        } else {
+            0
+        };
     // One LSTM step per call: four gates over [input, hidden], then the projection back.
     let lstm = cfg.lstm_hidden.map_or(0, |h| {
         let (d, h) = (f.cell_dim() as u64, h as u64);

@@ -290,6 +290,7 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     let cell_shape = g.ints("cell_shape", &[-1, cfg.featurizer.cell_dim() as i64]);
     let cell = g.op("Reshape", &[&cell, &cell_shape], &[]); // [C, cell]
     let x = w.batch_norm(&mut g, &cell, "proj_bn", None);
+    let shared_size = cfg.shared_size.then(|| w.linear(&mut g, &x, "size_head")); // [C, R·Pr·3]
     let x = w.linear(&mut g, &x, "proj");
     let x = g.op("Relu", &[&x], &[]); // [C, G²·D]
     let per_offset = g.ints("per_offset", &[-1, cfg.d_offset as i64]);
@@ -304,6 +305,10 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     let cls_shape = g.ints("cls_shape", &[-1, a as i64, k as i64]);
     let box_shape = g.ints("box_shape", &[-1, a as i64, 7]);
     g.op_into("Reshape", &[&cls, &cls_shape], &[], "cls_logits");
+    let reg = match shared_size {
+        Some(size) => with_shared_size(&mut g, &reg, &size, cfg),
+        None => reg,
+    };
     g.op_into("Reshape", &[&reg, &box_shape], &[], "box_residuals");
 
     let mut graph = Pb::default();
@@ -331,6 +336,26 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     model_pb.msg(7, &graph);
     model_pb.msg(8, &opset);
     model_pb.0
+}
+
+/// The per-offset residuals `reg` `[C·G², R·Pr·7]` with their size residuals (3..6) replaced by
+/// the per-center `size` `[C, R·Pr·3]` at every offset: `[C, G², R·Pr, 7]`.
+fn with_shared_size(g: &mut Graph, reg: &str, size: &str, cfg: &StarNetConfig) -> String {
+    let offsets = (cfg.anchors.grid * cfg.anchors.grid) as i64;
+    let per = cfg.anchors_per_offset() as i64;
+    let reg_shape = g.ints("reg_shape", &[-1, offsets, per, 7]);
+    let reg = g.op("Reshape", &[reg, &reg_shape], &[]);
+    let size_shape = g.ints("size_shape", &[-1, 1, per, 3]);
+    let size = g.op("Reshape", &[size, &size_shape], &[]);
+    let axis3 = g.ints("axis3", &[3]);
+    let slice = |g: &mut Graph, from: i64, to: i64| {
+        let (s, e) = (g.ints("start", &[from]), g.ints("end", &[to]));
+        g.op("Slice", &[&reg, &s, &e, &axis3], &[])
+    };
+    let (position, heading) = (slice(g, 0, 3), slice(g, 6, 7));
+    let shape = g.op("Shape", &[&position], &[]);
+    let size = g.op("Expand", &[&size, &shape], &[]);
+    g.op("Concat", &[&position, &size, &heading], &[("axis", Attr::Int(3))])
 }
 
 #[cfg(test)]

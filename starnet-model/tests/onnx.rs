@@ -33,8 +33,18 @@ fn random_model(cfg: &StarNetConfig) -> starnet_model::nn::StarNet {
 
 #[test]
 fn tract_matches_burn_for_several_budgets() {
-    // With the direction classifier, so its third output is checked too.
-    let cfg = StarNetConfig::small_car().with_direction_classifier(true);
+    // With the direction classifier (its third output is checked too) and shared sizes.
+    for shared_size in [false, true] {
+        check_budgets(
+            &StarNetConfig::small_car()
+                .with_direction_classifier(true)
+                .with_shared_size(shared_size),
+        );
+    }
+}
+
+fn check_budgets(cfg: &StarNetConfig) {
+    let cfg = cfg.clone();
     let model = random_model(&cfg);
     let bytes = onnx_model(&model, &cfg);
     let dev = default_device();

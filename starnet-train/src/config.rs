@@ -58,6 +58,10 @@ pub struct ModelSection {
     /// A two-bin direction classifier beside the box head (SECOND / OpenPCDet): boxes point
     /// the right way, which AOS and APH need; the paper has none (false).
     pub direction_classifier: bool,
+    /// Size residuals predicted once per center from the cell feature and shared by the G²
+    /// offsets (`starnet_model::nn::StarNetConfig::shared_size`); the paper predicts them per
+    /// offset (false).
+    pub shared_size: bool,
 }
 
 /// Streaming (the streaming-detection paper): sweeps cut into azimuth slices, detected slice by
@@ -230,6 +234,7 @@ impl Default for ExperimentConfig {
                 anchors: AnchorGrid::kitti_car(),
                 lstm_hidden: 0,
                 direction_classifier: false,
+                shared_size: false,
             },
             assign: AssignConfig::default(),
             loss: LossSection {
@@ -295,6 +300,7 @@ impl ExperimentConfig {
         )
         .with_lstm_hidden((self.model.lstm_hidden > 0).then_some(self.model.lstm_hidden))
         .with_direction_classifier(self.model.direction_classifier)
+        .with_shared_size(self.model.shared_size)
     }
 
     /// A split of the config's dataset, read with the config's labels.

@@ -44,6 +44,9 @@ pub struct NetworkSpec {
     pub cell_dim: usize,
     /// Per-offset feature width D: projector BN → Linear(cell → G²·D) → ReLU, reshaped per offset.
     pub d_offset: usize,
+    /// Whether the size residuals (3..6) come from `size_head` (Linear(cell → A/G²·3), no bias, on
+    /// the projector's BatchNorm output), the same at every offset, instead of from `box_head`.
+    pub shared_size: bool,
     /// BatchNorm ε (biased running variance).
     pub batch_norm_epsilon: f64,
 }
@@ -119,6 +122,7 @@ impl ModelSpec {
                 blocks: cfg.model.blocks.clone(),
                 cell_dim: model.featurizer.cell_dim(),
                 d_offset: cfg.model.d_offset,
+                shared_size: cfg.model.shared_size,
                 batch_norm_epsilon: 1e-3,
             },
             anchors: cfg.model.anchors.clone(),

@@ -57,6 +57,12 @@ pub struct StarNetConfig {
     /// point the right way; the paper has none.
     #[config(default = false)]
     pub direction_classifier: bool,
+    /// Predict the size residuals (log dx, dy, dz) once per center from the cell feature, shared
+    /// by all G² offsets, instead of per offset: an object's size does not depend on where the
+    /// anchor sits, and each offset's own head sees only 1/G² of the foreground. The paper
+    /// predicts them per offset.
+    #[config(default = false)]
+    pub shared_size: bool,
 }
 
 /// Logit of the classification prior 0.01: ln(0.01 / 0.99).
@@ -94,6 +100,11 @@ impl StarNetConfig {
         let dir_head = self
             .direction_classifier
             .then(|| linear(self.d_offset, per * 2, true, device));
+        let size_head = self.shared_size.then(|| {
+            let mut h = linear(cell, per * 3, false, device);
+            h.weight = Param::from_tensor(Tensor::zeros([cell, per * 3], device));
+            h
+        });
         StarNet {
             featurizer: self.featurizer.init(device),
             proj_bn: MaskedBatchNormConfig::new(cell).init(device),
@@ -101,6 +112,7 @@ impl StarNetConfig {
             cls_head,
             box_head,
             dir_head,
+            size_head,
             lstm: self
                 .lstm_hidden
                 .map(|h| SliceLstmConfig::new(cell).with_d_hidden(h).init(device)),
@@ -119,6 +131,7 @@ pub struct StarNet {
     cls_head: Linear,
     box_head: Linear,
     dir_head: Option<Linear>,
+    size_head: Option<Linear>,
     lstm: Option<SliceLstm>,
     d_offset: usize,
     num_classes: usize,
@@ -180,6 +193,7 @@ impl StarNet {
         let rows = self
             .proj_bn
             .forward(cell.reshape([b * c, d_cell]), center_valid.reshape([b * c, 1]));
+        let size = self.size_head.as_ref().map(|h| h.forward(rows.clone())); // [BC, R·Pr·3]
         let per_offset = relu(self.proj.forward(rows)); // [BC, G²·D]
         let [_, width] = per_offset.dims();
         let offsets = width / self.d_offset;
@@ -188,6 +202,12 @@ impl StarNet {
         let dir = self.dir_head.as_ref().map(|h| h.forward(f.clone())); // [BC·G², R·Pr·2]
         let reg = self.box_head.forward(f); // [BC·G², R·Pr·7]
         let per = cls.dims()[1] / self.num_classes;
+        let mut reg = reg.reshape([b * c, offsets, per, 7]);
+        if let Some(size) = size {
+            // The per-center sizes replace residuals 3..6 at every offset.
+            let size = size.reshape([b * c, 1, per, 3]).expand([b * c, offsets, per, 3]);
+            reg = Tensor::cat(vec![reg.clone().slice_dim(3, 0..3), size, reg.slice_dim(3, 6..7)], 3);
+        }
         ModelOutput {
             cls_logits: cls.reshape([b, c, offsets * per, self.num_classes]),
             box_residuals: reg.reshape([b, c, offsets * per, 7]),
@@ -236,6 +256,17 @@ mod tests {
             .dir_logits
             .expect("direction logits");
         assert_eq!(d.dims(), [2, 8, 100, 2]);
+        // With shared sizes, residuals 3..6 are the same at every offset of a center.
+        let shared = StarNetConfig::small_car().with_shared_size(true);
+        let shared_out = crate::export::load_weights(shared.init(&dev), &randomised(&shared.init(&dev)))
+            .expect("same layout")
+            .forward(input(&dev, 1, 2, 16, 10));
+        let r: Vec<f32> = shared_out.box_residuals.into_data().iter::<f32>().collect();
+        let at = |c: usize, offset: usize, j: usize| r[((c * 25 + offset) * 4) * 7 + j];
+        for j in 0..7 {
+            let same = (0..25).all(|o| (at(1, o, j) - at(1, 0, j)).abs() < 1e-6);
+            assert_eq!(same, (3..6).contains(&j), "residual {j}");
+        }
         // The box head starts at zero.
         assert!(out.box_residuals.into_data().iter::<f32>().all(|v| v == 0.0));
         // Without real points every feature is 0, so the logits are the class bias: the prior.
@@ -247,6 +278,21 @@ mod tests {
                 .iter::<f32>()
                 .all(|v| (v - CLASS_PRIOR_LOGIT).abs() < 1e-6)
         );
+    }
+
+    /// Every parameter of `model` replaced by a deterministic non-zero value.
+    fn randomised(model: &StarNet) -> std::collections::BTreeMap<String, crate::export::NamedTensor> {
+        crate::export::named_tensors(model)
+            .into_iter()
+            .map(|mut t| {
+                let var = t.name.ends_with("running_var");
+                for (i, v) in t.data.iter_mut().enumerate() {
+                    let u = ((i * 7919 + t.name.len() * 31) % 1000) as f32 / 1000.0;
+                    *v = if var { 0.5 + u } else { u - 0.5 };
+                }
+                (t.name.clone(), t)
+            })
+            .collect()
     }
 
     fn max_diff(a: Tensor<4>, b: Tensor<4>) -> f32 {
