@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The quickstart ablation (issue #15): trains configs/quickstart.toml with one change undone at
-# a time (`--set` overrides), three seeds each, and tabulates what each run's final evaluation
-# printed (runs/ablation/<variant>-s<seed>/eval.json) as mean ± half-range.
+# The quickstart ablation (issue #15): trains configs/quickstart.toml with one setting changed at
+# a time (`--set` overrides: a change undone, or one not in the quickstart tried), three seeds
+# each, and tabulates each run's final evaluation (runs/ablation/<variant>-s<seed>/eval.json) as
+# mean ± half-range. A run that has its eval.json is not trained again.
 #
 #   scripts/ablate.sh                      # every variant below, seeds 0 1 2, two runs at a time
 #   SEEDS="0" JOBS=1 scripts/ablate.sh quickstart ball
@@ -20,6 +21,7 @@ variants() {
   cat <<'V'
 quickstart|
 cylinder|pipeline.gather.metric="cylinder"
+shared-size|model.shared_size=true
 no-direction|model.direction_classifier=false
 tight-boxes|augment.object_margin=0.0
 V

@@ -74,6 +74,7 @@ fn main() {
                 cls_weight: Tensor::ones([1, c, a], &ad) / (c as f32),
                 residuals: Tensor::random([1, c, a, 7], Distribution::Normal(0.0, 0.3), &ad),
                 reg_weight: Tensor::ones([1, c, a], &ad) / (c as f32 * 10.0),
+                direction: Tensor::zeros([1, c, a], &ad),
             };
             let loss_cfg = LossConfig::new();
             let step = median_ms(&ad, || {

@@ -162,7 +162,7 @@ pub fn decode_detections(
         .into_data()
         .iter::<f32>()
         .collect();
-    let flip: Option<Vec<bool>> = out.dir_logits.as_ref().map(|d| {
+    let second_bin: Option<Vec<bool>> = out.dir_logits.as_ref().map(|d| {
         let v: Vec<f32> = d.clone().slice_dim(0, i..i + 1).into_data().iter::<f32>().collect();
         v.chunks_exact(2).map(|l| l[1] > l[0]).collect()
     });
@@ -176,7 +176,7 @@ pub fn decode_detections(
                 if cfg.per_class.get(class).is_some_and(|t| score >= t.score) {
                     let r: [f32; 7] = res[n * 7..n * 7 + 7].try_into().expect("7 residuals");
                     let mut b = decode(&r, &anchors[n]);
-                    if let Some(f) = &flip {
+                    if let Some(f) = &second_bin {
                         b.heading = with_direction(b.heading, usize::from(f[n]));
                     }
                     dets.push(Detection { b, class, score });

@@ -133,7 +133,7 @@ impl ModelSpec {
             box_coder: "d = sqrt(dx_a^2 + dy_a^2); x = x_a + r0*d; y = y_a + r1*d; z = z_a + r2*dz_a; \
                         dx = dx_a*exp(r3); dy = dy_a*exp(r4); dz = dz_a*exp(r5); heading = wrap(heading_a + r6) \
                         into [-pi, pi)",
-            direction: cfg.model.direction_classifier.then(|| DirectionSpec {
+            direction: cfg.model.direction_classifier.then_some(DirectionSpec {
                 offset: starnet_model::coder::DIRECTION_OFFSET,
                 rule: "bin = argmax(dir_logits[c, a]); heading = wrap(offset + ((heading - offset) mod pi) + pi*bin) \
                        into [-pi, pi), after the box coder and before NMS",

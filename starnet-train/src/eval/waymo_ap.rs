@@ -219,10 +219,14 @@ fn counts_at(case: &FrameCase, k: usize) -> [Counts; 2] {
 fn precision_recall(c: &Counts) -> [(f32, f32); 2] {
     let (pos, gt) = (c.tp + c.fp, c.tp + c.fn_);
     let recall = if gt > 0.0 { (c.tp / gt) as f32 } else { 0.0 };
-    let precision = |hits: f64| match (recall, pos > 0.0) {
-        (r, _) if r == 0.0 => 1.0,
-        (_, true) => (hits / pos) as f32,
-        (_, false) => 0.0,
+    let precision = |hits: f64| {
+        if recall == 0.0 {
+            1.0
+        } else if pos > 0.0 {
+            (hits / pos) as f32
+        } else {
+            0.0
+        }
     };
     [(precision(c.tp), recall), (precision(c.tp_heading), recall)]
 }
