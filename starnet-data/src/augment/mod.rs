@@ -282,17 +282,15 @@ mod tests {
 
     #[test]
     fn undoing_the_global_steps_restores_the_recorded_points() {
+        // Only the global steps, the flip certain.
+        let d = AugmentConfig::default();
         let cfg = AugmentConfig {
-            db_paste: DbPasteConfig {
-                enabled: false,
-                ..Default::default()
-            },
-            box_rotation: UniformStep {
-                enabled: false,
-                max: 0.0,
-            },
+            flip_y: true,
             flip_probability: 1.0,
-            ..AugmentConfig::default()
+            global_rotation: d.global_rotation,
+            global_scaling: true,
+            z_shift: true,
+            ..AugmentConfig::none()
         };
         let points = vec![[12.0, 3.0, -1.0, 0.5], [-4.0, 7.5, 0.2, 0.1]];
         let mut s = Scene {
