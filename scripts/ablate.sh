@@ -4,8 +4,9 @@
 # each, and tabulates each run's final evaluation (runs/ablation/<variant>-s<seed>/eval.json) as
 # mean ± half-range. A run that has its eval.json is not trained again.
 #
-#   scripts/ablate.sh                      # every variant below, seeds 0 1 2, two runs at a time
-#   SEEDS="0" JOBS=1 scripts/ablate.sh quickstart ball
+#   scripts/ablate.sh quickstart no-vote   # those variants, seeds 0 1 2, two runs at a time
+#   SEEDS="0" JOBS=1 scripts/ablate.sh cylinder
+#   scripts/ablate.sh                      # every variant below (39 runs: most of a day on 2 cores)
 #   scripts/ablate.sh --table              # only the table of the runs already done
 #
 # Needs the built binary (cargo build --bin starnet) and python3 (standard library only).
@@ -16,14 +17,24 @@ seeds=${SEEDS:-0 1 2}
 jobs=${JOBS:-2}
 out=runs/ablation
 
-# name | overrides (space-separated KEY=VALUE, none for the quickstart itself)
+# name | overrides (space-separated KEY=VALUE, none for the quickstart itself). `previous` is the
+# quickstart before box voting and the later decay; the `early-decay-*` rows are changes tried on
+# the quickstart with the earlier decay (epoch 5).
 variants() {
   cat <<'V'
 quickstart|
+no-vote|nms.vote_iou=[]
+early-decay|train.decay_start_epoch=5
+previous|train.decay_start_epoch=5 nms.vote_iou=[]
+early-decay-cylinder|train.decay_start_epoch=5 pipeline.gather.metric="cylinder"
+early-decay-shared-size|train.decay_start_epoch=5 model.shared_size=true
+early-decay-ignore-band|train.decay_start_epoch=5 assign.fg_iou=0.6 assign.bg_iou=0.45
 cylinder|pipeline.gather.metric="cylinder"
 shared-size|model.shared_size=true
+ignore-band|assign.fg_iou=0.6 assign.bg_iou=0.45
 no-direction|model.direction_classifier=false
 tight-boxes|augment.object_margin=0.0
+points-64|pipeline.gather.num_points=64
 V
 }
 

@@ -139,7 +139,8 @@ def clip(subject, clipper):  # Sutherland-Hodgman, both convex and counter-clock
 def intersect(p, q, a, b):
     dx, dy = q[0] - p[0], q[1] - p[1]
     ex, ey = b[0] - a[0], b[1] - a[1]
-    t = (ex * (p[1] - a[1]) - ey * (p[0] - a[0])) / (dy * ex - dx * ey)
+    # p + t (q - p) on the line through a and b: cross(p + t d - a, e) = 0.
+    t = (ex * (p[1] - a[1]) - ey * (p[0] - a[0])) / (dx * ey - dy * ex)
     return (p[0] + t * dx, p[1] + t * dy)
 
 
@@ -162,6 +163,24 @@ def nms(boxes, scores, iou_thr, score_thr, max_boxes):
         if all(iou_3d(boxes[i], boxes[j]) <= iou_thr for j in keep):
             keep.append(i)
     return keep
+
+
+def vote(boxes, scores, kept, candidates, min_iou):
+    """Box voting as starnet_model::nms::vote: the score-weighted mean of the candidates
+    overlapping the kept box by at least min_iou; headings averaged modulo pi about the kept
+    one, turned by pi when the weighted majority points the other way."""
+    k = boxes[kept]
+    voters = [i for i in candidates if i != kept and iou_3d(boxes[i], k) >= min_iou] + [kept]
+    w = scores[voters]
+    out = (w[:, None] * boxes[voters, :6]).sum(0) / w.sum()
+    turn = np.array([wrap(boxes[i, 6] - k[6]) for i in voters])
+    axis_turn = (w * np.array([wrap(2 * t) / 2 for t in turn])).sum() / w.sum()
+    flip = math.pi if (w * np.sign(np.cos(turn))).sum() < 0 else 0.0
+    return np.append(out, wrap(k[6] + axis_turn + flip))
+
+
+def wrap(a):
+    return (a + math.pi) % (2 * math.pi) - math.pi
 
 
 def kitti_line(name, b, score, calib):
@@ -224,8 +243,13 @@ def main():
     scores = 1.0 / (1.0 + np.exp(-logits.reshape(len(anchors), -1)))
     lines = []
     for k, name in enumerate(spec["classes"]):
-        for i in nms(boxes, scores[:, k], spec["nms_iou"][k], spec["nms_score"][k], spec["max_boxes"]):
-            line = kitti_line(name, boxes[i], scores[i, k], calib)
+        kept = nms(boxes, scores[:, k], spec["nms_iou"][k], spec["nms_score"][k], spec["max_boxes"])
+        candidates = np.flatnonzero(scores[:, k] >= spec["nms_score"][k])
+        for i in kept:
+            box = boxes[i]
+            if spec.get("nms_vote_iou"):
+                box = vote(boxes, scores[:, k], i, candidates, spec["nms_vote_iou"][k])
+            line = kitti_line(name, box, scores[i, k], calib)
             if line:
                 lines.append(line)
     os.makedirs(args.out, exist_ok=True)

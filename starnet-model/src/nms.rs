@@ -1,11 +1,13 @@
 //! Decoding's last step: per-class greedy non-maximum suppression with oriented 3D IoU
 //! (lingvo `NonMaxSuppression3D`), and the stateful variant of the streaming paper (§3.3),
-//! which also suppresses against the boxes kept in the previous k calls.
+//! which also suppresses against the boxes kept in the previous k calls. Optionally each kept
+//! box is then refined by box voting ([`vote`]; not in the paper, off by default).
 
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
-use starnet_data::geometry::iou_3d;
+use starnet_data::geometry::{iou_3d, wrap_angle};
 use std::collections::VecDeque;
+use std::f32::consts::PI;
 
 /// A scored box.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -26,6 +28,10 @@ pub struct ClassNms {
     pub iou: f32,
     /// Boxes scoring below this are dropped first.
     pub score: f32,
+    /// Box voting: a kept box becomes the score-weighted mean of the candidates overlapping it
+    /// by at least this 3D IoU ([`vote`]); `None` keeps it as selected (the paper).
+    #[serde(default)]
+    pub vote_iou: Option<f32>,
 }
 
 /// NMS settings.
@@ -59,7 +65,7 @@ pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, pre
         .collect();
     order.sort_by(|&i, &j| dets[j].score.total_cmp(&dets[i].score).then(i.cmp(&j)));
     let mut kept: Vec<Detection> = Vec::new();
-    for i in order {
+    for &i in &order {
         if kept.len() == cfg.max_boxes {
             break;
         }
@@ -75,7 +81,48 @@ pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, pre
             kept.push(d);
         }
     }
+    // Voting reads the selected boxes, so it runs after every suppression decision is made.
+    for k in &mut kept {
+        if let Some(min_iou) = cfg.per_class[k.class].vote_iou {
+            let same_class: Vec<Detection> = order.iter().map(|&i| dets[i]).filter(|d| d.class == k.class).collect();
+            k.b = vote(k, &same_class, min_iou);
+        }
+    }
     kept
+}
+
+/// Box voting (Gidaris & Komodakis, ICCV 2015, as in mmdetection's `score_voting`): the
+/// score-weighted mean of the `candidates` whose 3D IoU with `kept` is at least `min_iou`
+/// (`kept` among them, or added). Centers and sizes are averaged; headings are averaged as
+/// the box geometry (modulo π) about the kept heading, and the direction is the weighted
+/// majority of the candidates' directions, so a box whose top score points backwards is
+/// turned when most of the evidence disagrees.
+pub fn vote(kept: &Detection, candidates: &[Detection], min_iou: f32) -> Box3d {
+    let voters: Vec<&Detection> = candidates
+        .iter()
+        .filter(|c| c != &kept && iou_3d(&c.b, &kept.b) >= min_iou)
+        .chain(std::iter::once(kept))
+        .collect();
+    let total: f32 = voters.iter().map(|c| c.score).sum();
+    let mean = |f: fn(&Box3d) -> f32| voters.iter().map(|c| c.score * f(&c.b)).sum::<f32>() / total;
+    let turn = |c: &Detection| wrap_angle(c.b.heading - kept.b.heading);
+    // The turn modulo π, in [−π/2, π/2): the same box whichever way it points.
+    let axis_turn = voters
+        .iter()
+        .map(|c| c.score * (wrap_angle(2.0 * turn(c)) / 2.0))
+        .sum::<f32>()
+        / total;
+    let forward: f32 = voters.iter().map(|c| c.score * turn(c).cos().signum()).sum();
+    let flip = if forward < 0.0 { PI } else { 0.0 };
+    Box3d::new(
+        mean(|b| b.x),
+        mean(|b| b.y),
+        mean(|b| b.z),
+        mean(|b| b.dx),
+        mean(|b| b.dy),
+        mean(|b| b.dz),
+        wrap_angle(kept.b.heading + axis_turn + flip),
+    )
 }
 
 /// Which of two overlapping boxes stateful NMS keeps when one was emitted in an earlier slice
@@ -148,7 +195,14 @@ mod tests {
 
     fn cfg(max: usize) -> NmsConfig {
         NmsConfig {
-            per_class: vec![ClassNms { iou: 0.1, score: 0.2 }; 2],
+            per_class: vec![
+                ClassNms {
+                    iou: 0.1,
+                    score: 0.2,
+                    vote_iou: None
+                };
+                2
+            ],
             max_boxes: max,
         }
     }
@@ -170,6 +224,42 @@ mod tests {
             "0.8 overlaps 0.9; the class-1 box survives; 0.1 is below the score threshold"
         );
         assert_eq!(nms(&dets, &cfg(2)).len(), 2);
+    }
+
+    #[test]
+    fn voting_averages_the_overlapping_candidates_by_score() {
+        let dets = [det(0.0, 0, 0.9), det(0.5, 0, 0.6), det(10.0, 0, 0.5), det(0.3, 1, 0.8)];
+        let mut c = cfg(10);
+        c.per_class[0].vote_iou = Some(0.5);
+        let kept = nms(&dets, &c);
+        // Class 0: 0.9 and 0.6 overlap (IoU 3.5/4.5 = 0.78) and vote, (0.9·0 + 0.6·0.5)/1.5 = 0.2;
+        // the far box is kept alone; class 1 has no voting.
+        let xs: Vec<f32> = kept.iter().map(|d| d.b.x).collect();
+        assert!((xs[0] - 0.2).abs() < 1e-6 && xs[1] == 0.3 && xs[2] == 10.0, "{xs:?}");
+        assert_eq!(kept.iter().map(|d| d.score).collect::<Vec<_>>(), [0.9, 0.8, 0.5]);
+        // Plain NMS keeps the selected box.
+        assert_eq!(nms(&dets, &cfg(10))[0].b.x, 0.0);
+    }
+
+    #[test]
+    fn voting_averages_headings_as_axes_and_takes_the_majority_direction() {
+        let at = |heading: f32, score: f32| Detection {
+            b: Box3d::new(0.0, 0.0, -1.0, 4.0, 1.6, 1.5, wrap_angle(heading)),
+            class: 0,
+            score,
+        };
+        let kept = at(0.1, 0.5);
+        // Both others point backwards: axis turns +0.2 and 0; direction 0.5 − 0.4 − 0.3 < 0.
+        let others = [at(PI + 0.3, 0.4), at(PI + 0.1, 0.3)];
+        let b = vote(&kept, &others, 0.5);
+        let want = wrap_angle(0.1 + 0.4 * 0.2 / 1.2 + PI);
+        assert!((b.heading - want).abs() < 1e-5, "{} vs {want}", b.heading);
+        // One backward voter of lower weight: the direction stays, the axis still moves.
+        let b = vote(&kept, &others[..1], 0.5);
+        assert!((b.heading - (0.1 + 0.4 * 0.2 / 0.9)).abs() < 1e-5, "{}", b.heading);
+        // Nothing overlaps enough: the kept box as it was.
+        let alone = vote(&kept, &others, 1.0);
+        assert!((alone.heading - 0.1).abs() < 1e-6 && alone.x == 0.0 && alone.dx == 4.0);
     }
 
     #[test]

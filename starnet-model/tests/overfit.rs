@@ -86,7 +86,11 @@ fn small_model_overfits_one_frame_and_recovers_its_cars() {
     let batch = make_batch(&[&prepared], &[&targets], 1, &plain);
     let out = eval.forward(batch.input);
     let nms = NmsConfig {
-        per_class: vec![ClassNms { iou: 0.1, score: 0.3 }],
+        per_class: vec![ClassNms {
+            iou: 0.1,
+            score: 0.3,
+            vote_iou: None,
+        }],
         max_boxes: 100,
     };
     let dets = decode_frame(&out, 0, &prepared, &model_cfg.anchors, &nms);

@@ -132,6 +132,10 @@ pub struct NmsSection {
     pub iou: Vec<f32>,
     /// Per class: the lowest score kept.
     pub score: Vec<f32>,
+    /// Per class: box voting ([`starnet_model::nms::vote`]), each kept box replaced by the
+    /// score-weighted mean of the candidates overlapping it by at least this 3D IoU. Empty (the
+    /// paper): plain NMS.
+    pub vote_iou: Vec<f32>,
     /// At most this many boxes per frame.
     pub max_boxes: usize,
 }
@@ -252,6 +256,7 @@ impl Default for ExperimentConfig {
             nms: NmsSection {
                 iou: vec![0.083],
                 score: vec![0.321],
+                vote_iou: Vec::new(),
                 max_boxes: 512,
             },
             train: TrainSection {
@@ -331,7 +336,12 @@ impl ExperimentConfig {
             .iou
             .iter()
             .zip(&self.nms.score)
-            .map(|(&iou, &score)| ClassNms { iou, score })
+            .enumerate()
+            .map(|(c, (&iou, &score))| ClassNms {
+                iou,
+                score,
+                vote_iou: self.nms.vote_iou.get(c).copied(),
+            })
             .collect();
         NmsConfig {
             per_class,
@@ -357,6 +367,15 @@ impl ExperimentConfig {
                 "nms.iou",
                 format!("nms.iou and nms.score need one value per class ({k})"),
             );
+        }
+        if !(self.nms.vote_iou.is_empty() || self.nms.vote_iou.len() == k) {
+            return bad(
+                "nms.vote_iou",
+                format!("needs one value per class ({k}), or none to turn voting off"),
+            );
+        }
+        if let Some(v) = self.nms.vote_iou.iter().find(|v| !(0.0..=1.0).contains(*v)) {
+            return bad("nms.vote_iou", format!("{v} is not an IoU in [0, 1]"));
         }
         for (key, v) in [
             ("train.epochs", self.train.epochs),
@@ -735,6 +754,22 @@ mod tests {
                 .unwrap_err()
                 .to_string()
                 .contains("one value per class")
+        );
+        for (body, want) in [
+            ("[nms]\nvote_iou = [0.5, 0.5]\n", "one value per class"),
+            ("[nms]\nvote_iou = [1.5]\n", "1.5 is not an IoU"),
+        ] {
+            let p = write(dir.path(), "v.toml", body);
+            let e = load_config(&p, &[]).unwrap_err().to_string();
+            assert!(e.contains("nms.vote_iou") && e.contains(want), "{e}");
+        }
+        let p = write(dir.path(), "v.toml", "[nms]\nvote_iou = [0.5]\n");
+        let c = load_config(&p, &[]).unwrap();
+        assert_eq!(c.nms_config().per_class[0].vote_iou, Some(0.5));
+        assert_eq!(
+            ExperimentConfig::default().nms_config().per_class[0].vote_iou,
+            None,
+            "the paper's plain NMS"
         );
         let p = write(dir.path(), "f.toml", "base = \"f.toml\"\n");
         assert!(load_config(&p, &[]).unwrap_err().to_string().contains("cycle"));

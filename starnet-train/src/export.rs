@@ -79,6 +79,11 @@ pub struct ModelSpec {
     pub nms_iou: Vec<f32>,
     /// Per class: the lowest sigmoid score kept.
     pub nms_score: Vec<f32>,
+    /// Per class: box voting after NMS, each kept box replaced by the score-weighted mean of the
+    /// candidates (score above `nms_score`) overlapping it by at least this 3D IoU; centers and
+    /// sizes averaged, the heading averaged modulo π about the kept one and turned by π when
+    /// the weighted majority points the other way (`starnet_model::nms::vote`). Empty: none.
+    pub nms_vote_iou: Vec<f32>,
     /// At most this many boxes per frame.
     pub max_boxes: usize,
     /// Center sampler.
@@ -141,6 +146,7 @@ impl ModelSpec {
             classes: cfg.data.classes.clone(),
             nms_iou: cfg.nms.iou.clone(),
             nms_score: cfg.nms.score.clone(),
+            nms_vote_iou: cfg.nms.vote_iou.clone(),
             max_boxes: cfg.nms.max_boxes,
             sampler: cfg.pipeline.sampler,
             center_pool: cfg.pipeline.pool.clone(),
