@@ -91,9 +91,8 @@ pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, pre
     kept
 }
 
-/// Box voting (Gidaris & Komodakis, ICCV 2015, as in mmdetection's `score_voting`): the
-/// score-weighted mean of the `candidates` whose 3D IoU with `kept` is at least `min_iou`
-/// (`kept` among them, or added). Centers and sizes are averaged; headings are averaged as
+/// Box voting (Gidaris & Komodakis, ICCV 2015): the score-weighted mean of the `candidates`
+/// whose 3D IoU with `kept` is at least `min_iou` (`kept` among them, or added). Centers and sizes are averaged; headings are averaged as
 /// the box geometry (modulo π) about the kept heading, and the direction is the weighted
 /// majority of the candidates' directions, so a box whose top score points backwards is
 /// turned when most of the evidence disagrees.
