@@ -324,6 +324,38 @@ mod tests {
     }
 
     proptest::proptest! {
+        /// A vote is a weighted mean: its centre and sizes lie within the candidates' range, its
+        /// axis within their spread about the kept heading (modulo π), and copies of one box vote
+        /// for that box.
+        #[test]
+        fn votes_stay_within_the_candidates(
+            raw in proptest::collection::vec((-0.5f32..0.5, -0.5f32..0.5, 3.5f32..4.5, -0.3f32..0.3, proptest::bool::ANY, 0.3f32..1.0), 1..12),
+        ) {
+            let dets: Vec<Detection> = raw
+                .iter()
+                .map(|&(x, y, dx, turn, back, score)| Detection {
+                    b: Box3d::new(x, y, -1.0, dx, 1.6, 1.5, wrap_angle(0.2 + turn + if back { PI } else { 0.0 })),
+                    class: 0,
+                    score,
+                })
+                .collect();
+            let v = vote(&dets[0], &dets, 0.0);
+            let range = |f: fn(&Box3d) -> f32| {
+                let vals: Vec<f32> = dets.iter().map(|d| f(&d.b)).collect();
+                (vals.iter().copied().fold(f32::INFINITY, f32::min) - 1e-4, vals.iter().copied().fold(f32::NEG_INFINITY, f32::max) + 1e-4)
+            };
+            for (got, (lo, hi)) in [(v.x, range(|b| b.x)), (v.y, range(|b| b.y)), (v.dx, range(|b| b.dx))] {
+                proptest::prop_assert!((lo..=hi).contains(&got), "{} not in [{}, {}]", got, lo, hi);
+            }
+            let axis = |h: f32| wrap_angle(2.0 * (h - 0.2)) / 2.0;
+            let turns: Vec<f32> = dets.iter().map(|d| axis(d.b.heading)).collect();
+            let (lo, hi) = (turns.iter().copied().fold(f32::INFINITY, f32::min), turns.iter().copied().fold(f32::NEG_INFINITY, f32::max));
+            proptest::prop_assert!((lo - 1e-4..=hi + 1e-4).contains(&axis(v.heading)), "axis {} not in [{}, {}]", axis(v.heading), lo, hi);
+            let copies = vec![dets[0]; 3];
+            let same = vote(&dets[0], &copies, 0.5);
+            proptest::prop_assert!((same.x - dets[0].b.x).abs() < 1e-5 && (wrap_angle(same.heading - dets[0].b.heading)).abs() < 1e-5);
+        }
+
         /// Stateful NMS remembering the previous n − 1 slices is global NMS over the sweep in
         /// arrival order; when boxes arrive best first (no later box outscores an earlier one),
         /// it is exactly the global, score-ordered NMS.
