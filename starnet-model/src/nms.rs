@@ -92,10 +92,10 @@ pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, pre
 }
 
 /// Box voting (Gidaris & Komodakis, ICCV 2015): the score-weighted mean of the `candidates`
-/// whose 3D IoU with `kept` is at least `min_iou` (`kept` among them, or added). Centers and sizes are averaged; headings are averaged as
-/// the box geometry (modulo π) about the kept heading, and the direction is the weighted
-/// majority of the candidates' directions, so a box whose top score points backwards is
-/// turned when most of the evidence disagrees.
+/// whose 3D IoU with `kept` is at least `min_iou` (`kept` among them, or added). Centers and
+/// sizes are averaged; headings are averaged as the box geometry (modulo π) about the kept
+/// heading, and the direction is the weighted majority of the candidates' directions, so a box
+/// whose top score points backwards is turned when most of the evidence disagrees.
 pub fn vote(kept: &Detection, candidates: &[Detection], min_iou: f32) -> Box3d {
     let voters: Vec<&Detection> = candidates
         .iter()
