@@ -21,6 +21,8 @@ import os
 
 import numpy as np
 
+from box_errors import read_objects  # the KITTI label / result reader beside this script
+
 LEVEL_2_MAX_POINTS = 5
 
 
@@ -39,19 +41,12 @@ def read_calib(path):
 
 
 def read_boxes(path, rect_to_velo):
-    """(class, [x, y, z, l, w, h, yaw] in the LiDAR frame, score) per line."""
+    """(class, [x, y, z, l, w, h, yaw] in the LiDAR frame, score) per object of a KITTI file."""
     out = []
-    if not os.path.exists(path):
-        return out
-    with open(path) as f:
-        for line in f:
-            v = line.split()
-            if len(v) < 15 or v[0] == "DontCare":
-                continue
-            h, w, l, x, y, z, ry = map(float, v[8:15])
-            c = rect_to_velo @ np.array([x, y - h / 2, z, 1.0])  # KITTI's location is the bottom centre
-            yaw = (-ry - math.pi / 2 + math.pi) % (2 * math.pi) - math.pi
-            out.append((v[0], [c[0], c[1], c[2], l, w, h, yaw], float(v[15]) if len(v) > 15 else 1.0))
+    for o in read_objects(path):
+        c = rect_to_velo @ np.array([o["x"], o["y"] - o["h"] / 2, o["z"], 1.0])  # KITTI's location is the bottom centre
+        yaw = (-o["ry"] - math.pi / 2 + math.pi) % (2 * math.pi) - math.pi
+        out.append((o["cls"], [c[0], c[1], c[2], o["l"], o["w"], o["h"], yaw], o["score"]))
     return out
 
 
