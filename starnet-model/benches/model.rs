@@ -17,6 +17,9 @@ use starnet_model::loss::{LossConfig, LossTargets, starnet_loss};
 use starnet_model::nn::{ModelInput, StarNetConfig};
 use std::time::Instant;
 
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn median_ms(device: &Device, mut f: impl FnMut()) -> f64 {
     for _ in 0..2 {
         f();
@@ -48,14 +51,24 @@ fn main() {
     let dev = default_device();
     println!("backend {}", backend_name());
     println!(
-        "| preset | (C, P) | GFLOP/frame | forward | GFLOP/s | forward + backward + Adam | GFLOP/s (3x forward) |"
+        "| preset | blocks | (C, P) | GFLOP/frame | forward | GFLOP/s | forward + backward + Adam | GFLOP/s (3x forward) |"
     );
-    println!("|---|---|---|---|---|---|---|");
-    for (name, cfg) in [
+    println!("|---|---|---|---|---|---|---|---|");
+    // `STARNET_BENCH_COMPOSED=1` adds the composed (reference) blocks beside the fused ones.
+    let composed = std::env::var_os("STARNET_BENCH_COMPOSED").is_some();
+    let kinds: &[bool] = if composed { &[true, false] } else { &[true] };
+    // `STARNET_BENCH_ONLY=paper:1024` runs one preset at one center count (for profiling).
+    let only = std::env::var("STARNET_BENCH_ONLY").ok();
+    for (name, base) in [
         ("paper", StarNetConfig::paper_car()),
         ("small", StarNetConfig::small_car()),
     ] {
-        for (c, p) in [(256, 32), (1024, 64)] {
+        for (&fused, (c, p)) in kinds.iter().flat_map(|k| [(k, (256, 32)), (k, (1024, 64))]) {
+            if only.as_ref().is_some_and(|o| *o != format!("{name}:{c}")) {
+                continue;
+            }
+            let mut cfg = base.clone();
+            cfg.featurizer.fused = fused;
             let gflop = forward_gflop(&cfg, c, p);
             let model = cfg.init(&dev).valid();
             let x = input(c, p, &dev);
@@ -77,13 +90,21 @@ fn main() {
                 direction: Tensor::zeros([1, c, a], &ad),
             };
             let loss_cfg = LossConfig::new();
+            if std::env::var_os("STARNET_BENCH_FORWARD_ONLY").is_some() {
+                println!(
+                    "| {name} | ({c}, {p}) | {gflop:.2} | {fwd:.0} ms | {:.1} |",
+                    gflop / fwd * 1e3
+                );
+                continue;
+            }
             let step = median_ms(&ad, || {
                 let loss = starnet_loss(&train.forward(xa.clone()), &targets, &loss_cfg).total;
                 let grads = GradientsParams::from_grads(loss.backward(), &train);
                 train = optim.step(1e-4, train.clone(), grads);
             });
             println!(
-                "| {name} | ({c}, {p}) | {gflop:.2} | {fwd:.0} ms | {:.1} | {step:.0} ms | {:.1} |",
+                "| {name} | {} | ({c}, {p}) | {gflop:.2} | {fwd:.0} ms | {:.1} | {step:.0} ms | {:.1} |",
+                if fused { "fused" } else { "composed" },
                 gflop / fwd * 1e3,
                 3.0 * gflop / step * 1e3
             );

@@ -62,6 +62,15 @@ pub struct ModelSection {
     /// offsets (`starnet_model::nn::StarNetConfig::shared_size`); the paper predicts them per
     /// offset (false).
     pub shared_size: bool,
+    /// Run the StarNet blocks as one fused operation each on the flex backend (the same maths,
+    /// to float rounding, several times faster to train); false: the composed Burn operations,
+    /// the reference and the path on other backends. Files that predate it mean true.
+    #[serde(default = "fused_by_default")]
+    pub fused_blocks: bool,
+}
+
+fn fused_by_default() -> bool {
+    true
 }
 
 /// Streaming (the streaming-detection paper): sweeps cut into azimuth slices, detected slice by
@@ -239,6 +248,7 @@ impl Default for ExperimentConfig {
                 lstm_hidden: 0,
                 direction_classifier: false,
                 shared_size: false,
+                fused_blocks: true,
             },
             assign: AssignConfig::default(),
             loss: LossSection {
@@ -296,7 +306,7 @@ impl Default for ExperimentConfig {
 impl ExperimentConfig {
     /// The model's Burn config.
     pub fn model_config(&self) -> StarNetConfig {
-        let f = FeaturizerConfig::new(self.model.d_fc0, self.model.blocks.clone());
+        let f = FeaturizerConfig::new(self.model.d_fc0, self.model.blocks.clone()).with_fused(self.model.fused_blocks);
         StarNetConfig::new(
             f,
             self.model.d_offset,

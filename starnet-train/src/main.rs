@@ -22,6 +22,11 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+// Training allocates and frees the same large buffers every step; glibc hands each back to the
+// kernel and faults it in again, mimalloc keeps them (BENCHMARKS.md, issue #16).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 #[derive(Parser)]
 #[command(
     name = "starnet",

@@ -18,6 +18,10 @@ pub struct FeaturizerConfig {
     pub d_fc0: usize,
     /// Per block, `[hidden, output]` widths.
     pub blocks: Vec<[usize; 2]>,
+    /// Run the blocks as the fused operation where the backend allows it (flex, f32); off:
+    /// the composed Burn operations everywhere (the reference).
+    #[config(default = true)]
+    pub fused: bool,
 }
 
 impl FeaturizerConfig {
@@ -43,7 +47,9 @@ impl FeaturizerConfig {
             .blocks
             .iter()
             .map(|&[hidden, out]| {
-                let b = StarNetBlockConfig::new(d, hidden, out).init(device);
+                let b = StarNetBlockConfig::new(d, hidden, out)
+                    .with_fused(self.fused)
+                    .init(device);
                 d = out;
                 b
             })

@@ -63,21 +63,12 @@ impl MaskedBatchNorm {
     /// - output: `[N, D]`, zero in padded rows
     pub fn forward(&self, x: Tensor<2>, mask: Tensor<2>) -> Tensor<2> {
         let [_, d] = x.dims();
-        let (mean, var) = if x.device().is_autodiff() && self.training.is_enabled() {
+        let (mean, var) = if self.uses_batch_statistics(&x.device()) {
             let count = mask.clone().sum().clamp_min(1.0).reshape([1, 1]);
             let mean = (x.clone() * mask.clone()).sum_dim(0) / count.clone(); // [1, D]
             let centred = (x.clone() - mean.clone()) * mask.clone();
             let var = centred.powi_scalar(2).sum_dim(0) / count; // [1, D]
-            let update = |state: &RunningState<Tensor<1>>, batch: Tensor<2>| {
-                let old = state.value_sync().to_device(&batch.device());
-                let new = old.mul_scalar(1.0 - self.momentum) + batch.detach().reshape([d]).mul_scalar(self.momentum);
-                state.update(new.detach());
-                // Fold the update in now: Burn parks it per thread until the next sync, and
-                // saving (which reads the synced value) would otherwise lag one step behind.
-                let _ = state.value_sync();
-            };
-            update(&self.running_mean, mean.clone());
-            update(&self.running_var, var.clone());
+            self.update_running(mean.clone().reshape([d]), var.clone().reshape([d]));
             (mean, var)
         } else {
             let dev = x.device();
@@ -88,6 +79,28 @@ impl MaskedBatchNorm {
         };
         let scale = self.gamma.val().reshape([1, d]) / (var + self.epsilon).sqrt();
         ((x - mean) * scale + self.beta.val().reshape([1, d])) * mask
+    }
+}
+
+impl MaskedBatchNorm {
+    /// Moves the running statistics `momentum` of the way towards a batch's mean and biased
+    /// variance (`[D]` each; detached here).
+    pub fn update_running(&self, mean: Tensor<1>, var: Tensor<1>) {
+        let update = |state: &RunningState<Tensor<1>>, batch: Tensor<1>| {
+            let old = state.value_sync().to_device(&batch.device());
+            let new = old.mul_scalar(1.0 - self.momentum) + batch.detach().mul_scalar(self.momentum);
+            state.update(new.detach());
+            // Fold the update in now: Burn parks it per thread until the next sync, and
+            // saving (which reads the synced value) would otherwise lag one step behind.
+            let _ = state.value_sync();
+        };
+        update(&self.running_mean, mean);
+        update(&self.running_var, var);
+    }
+
+    /// Whether `forward` on `device` normalises with the batch's statistics (training).
+    pub fn uses_batch_statistics(&self, device: &Device) -> bool {
+        device.is_autodiff() && self.training.is_enabled()
     }
 }
 

@@ -3,6 +3,7 @@
 
 mod block;
 mod featurizer;
+pub mod fused;
 mod masked_bn;
 mod slice_lstm;
 mod starnet;

@@ -280,6 +280,43 @@ mod tests {
         );
     }
 
+    #[test]
+    fn a_model_trained_fused_evaluates_the_same_on_the_composed_blocks() {
+        use burn::optim::{AdamConfig, GradientsParams};
+        let train = default_device().autodiff();
+        let cfg = StarNetConfig::small_car();
+        assert!(cfg.featurizer.fused, "the fused blocks are the default");
+        let mut model = cfg.init(&train);
+        let mut optim = AdamConfig::new().init();
+        for step in 0..3 {
+            let out = model.forward(input(&train, 2, 8, 16, 12 - 3 * step));
+            let loss = out.cls_logits.powi_scalar(2).mean() + (out.box_residuals - 0.5).powi_scalar(2).mean();
+            let grads = GradientsParams::from_grads(loss.backward(), &model);
+            model = optim.step(1e-2, model, grads);
+        }
+        // The checkpoint's tensors, running statistics included, into a composed-block model.
+        let weights = crate::export::named_tensors(&model.valid())
+            .into_iter()
+            .map(|t| (t.name.clone(), t))
+            .collect();
+        let dev = default_device();
+        let mut composed_cfg = cfg.clone();
+        composed_cfg.featurizer.fused = false;
+        let composed = crate::export::load_weights(composed_cfg.init(&dev), &weights).expect("same layout");
+        let fused = crate::export::load_weights(cfg.init(&dev), &weights).expect("same layout");
+        let x = input(&dev, 1, 6, 16, 9);
+        let (a, b) = (fused.forward(x.clone()), composed.forward(x));
+        for (a, b, what) in [
+            (a.cls_logits, b.cls_logits, "logits"),
+            (a.box_residuals, b.box_residuals, "residuals"),
+        ] {
+            let (a, b): (Vec<f32>, Vec<f32>) = (a.into_data().iter().collect(), b.into_data().iter().collect());
+            let scale = b.iter().fold(1e-6f32, |m, v| m.max(v.abs()));
+            let worst = a.iter().zip(&b).fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+            assert!(worst <= 1e-4 * scale, "{what}: {worst} against {scale}");
+        }
+    }
+
     /// Every parameter of `model` replaced by a deterministic non-zero value.
     fn randomised(model: &StarNet) -> std::collections::BTreeMap<String, crate::export::NamedTensor> {
         crate::export::named_tensors(model)

@@ -1,0 +1,516 @@
+//! The StarNet block's forward and backward on raw f32 rows, the maths of
+//! [`crate::nn::StarNetBlock`] rearranged so that nothing per point is computed twice:
+//!
+//! - The pooled half of the concat is per center: `BN(concat(x, g)) · W₁ = BN_x(x) · W₁ₓ +
+//!   BN_g(g) · W₁g`, so its product is taken once per center (N rows, not N·P).
+//! - BatchNorm is folded into the following Linear: `BN(x) · W = x · (diag(s) W) + t · W` with
+//!   `s = γ / √(σ² + ε)` and `t = β − μ s`, so the normalised rows are never written; the
+//!   weight gradient unfolds the same way, `BN(x)ᵀ dz = diag(s) (xᵀ dz) + t ⊗ Σ_rows dz`.
+//!
+//! Rows are the `N · P` point slots, center-major; padded slots (mask 0) are zero on the way in
+//! and out and in every gradient, as in the composed block. Batch statistics are over real rows
+//! (the pooled half weighs each center by its real-point count, as the broadcast concat does).
+
+use super::gemm::{Mat, matmul_new, matmul_tn};
+use super::rows::{add, add_scaled, col_sums, for_rows};
+
+/// The block's sizes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BlockDims {
+    /// Centers N (B · C).
+    pub centers: usize,
+    /// Point slots per center P.
+    pub points: usize,
+    /// Input width d.
+    pub d_in: usize,
+    /// Hidden width H.
+    pub d_hidden: usize,
+    /// Output width O.
+    pub d_out: usize,
+}
+
+impl BlockDims {
+    fn rows(&self) -> usize {
+        self.centers * self.points
+    }
+}
+
+/// The block's parameters, in Burn's layouts (Linear weights `[d_in, d_out]`).
+#[derive(Debug, Clone, Copy)]
+pub struct BlockParams<'a> {
+    /// BN₁ scale `[2d]` (the point half, then the pooled half).
+    pub gamma1: &'a [f32],
+    /// BN₁ shift `[2d]`.
+    pub beta1: &'a [f32],
+    /// fc1 weight `[2d, H]`.
+    pub w1: &'a [f32],
+    /// BN₂ scale `[H]`.
+    pub gamma2: &'a [f32],
+    /// BN₂ shift `[H]`.
+    pub beta2: &'a [f32],
+    /// fc2 weight `[H, O]`.
+    pub w2: &'a [f32],
+    /// Added to the variances.
+    pub epsilon: f32,
+}
+
+/// Per-channel mean and biased variance of one BatchNorm.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BnStats {
+    /// Mean `[D]`.
+    pub mean: Vec<f32>,
+    /// Biased variance `[D]`.
+    pub var: Vec<f32>,
+}
+
+/// Where the BatchNorms take their statistics from.
+#[derive(Debug, Clone, Copy)]
+pub enum Normalization<'a> {
+    /// The batch's own (training).
+    Batch,
+    /// Given ones: the running statistics (evaluation).
+    Fixed {
+        /// BN₁'s `[2d]`.
+        bn1: &'a BnStats,
+        /// BN₂'s `[H]`.
+        bn2: &'a BnStats,
+    },
+}
+
+/// What the forward computes besides its output, for the backward.
+#[derive(Debug, Clone)]
+pub struct BlockSaved {
+    /// The first layer's ReLU output `[N·P, H]`.
+    pub hidden: Vec<f32>,
+    /// Masked max over each center's points `[N, d]`.
+    pub pooled: Vec<f32>,
+    /// Which point slot gave each pooled value `[N, d]` (the first of equal ones).
+    pub argmax: Vec<u32>,
+    /// BN₁'s statistics `[2d]`.
+    pub bn1: BnStats,
+    /// BN₂'s statistics `[H]`.
+    pub bn2: BnStats,
+}
+
+/// Gradients with respect to the block's input and parameters (shapes as theirs).
+#[derive(Debug, Clone)]
+pub struct BlockGrads {
+    /// `[N·P, d]`.
+    pub x: Vec<f32>,
+    /// `[2d]`.
+    pub gamma1: Vec<f32>,
+    /// `[2d]`.
+    pub beta1: Vec<f32>,
+    /// `[2d, H]`.
+    pub w1: Vec<f32>,
+    /// `[H]`.
+    pub gamma2: Vec<f32>,
+    /// `[H]`.
+    pub beta2: Vec<f32>,
+    /// `[H, O]`.
+    pub w2: Vec<f32>,
+}
+
+/// Max over each center's real points, with the slot it came from. Inputs are ReLU outputs
+/// (≥ 0) zero in padded slots, so, as in the composed block, the max of `x · mask` is taken over
+/// every slot and a center with no real point pools to 0.
+fn pool_max(x: &[f32], mask: &[f32], dims: BlockDims) -> (Vec<f32>, Vec<u32>) {
+    let (p, d) = (dims.points, dims.d_in);
+    let mut pooled = vec![0.0; dims.centers * d];
+    let mut argmax = vec![0u32; dims.centers * d];
+    for n in 0..dims.centers {
+        let (g, idx) = (&mut pooled[n * d..(n + 1) * d], &mut argmax[n * d..(n + 1) * d]);
+        for s in 0..p {
+            let r = n * p + s;
+            let m = mask[r];
+            for ((g, i), x) in g.iter_mut().zip(idx.iter_mut()).zip(&x[r * d..(r + 1) * d]) {
+                // Selects rather than branches, so the loop vectorises.
+                let take = s == 0 || x * m > *g;
+                *g = if take { x * m } else { *g };
+                *i = if take { s as u32 } else { *i };
+            }
+        }
+    }
+    (pooled, argmax)
+}
+
+/// Real points per center.
+fn counts(mask: &[f32], dims: BlockDims) -> Vec<f32> {
+    mask.chunks(dims.points.max(1))
+        .take(dims.centers)
+        .map(|m| m.iter().sum())
+        .collect()
+}
+
+/// Mean and biased variance of the columns of `x` (`[rows, cols]`) over rows weighted by `w`,
+/// two-pass like the composed BatchNorm, divided by `total` (the weights' sum, at least 1).
+fn weighted_stats(x: &[f32], cols: usize, w: &[f32], total: f32) -> BnStats {
+    let rows = w.len();
+    let row = |r: usize| &x[r * cols..(r + 1) * cols];
+    let [sum] = col_sums(rows, cols, |r, [acc]| {
+        if w[r] != 0.0 {
+            add_scaled(acc, row(r), w[r]);
+        }
+    });
+    let mean: Vec<f32> = sum.iter().map(|s| s / total).collect();
+    let [sq] = col_sums(rows, cols, |r, [acc]| {
+        if w[r] != 0.0 {
+            for ((a, x), m) in acc.iter_mut().zip(row(r)).zip(&mean) {
+                *a += w[r] * (x - m) * (x - m);
+            }
+        }
+    });
+    BnStats {
+        mean,
+        var: sq.iter().map(|s| s / total).collect(),
+    }
+}
+
+/// `(s, t)` of the folded BatchNorm: `BN(x) = x s + t`.
+fn fold(gamma: &[f32], beta: &[f32], stats: &BnStats, eps: f32) -> (Vec<f32>, Vec<f32>) {
+    let s: Vec<f32> = gamma
+        .iter()
+        .zip(&stats.var)
+        .map(|(g, v)| g / (v + eps).sqrt())
+        .collect();
+    let t = beta
+        .iter()
+        .zip(&stats.mean)
+        .zip(&s)
+        .map(|((b, m), s)| b - m * s)
+        .collect();
+    (s, t)
+}
+
+/// `diag(s) · w` for `w` `[s.len(), cols]`.
+fn scale_rows(w: &[f32], s: &[f32], cols: usize) -> Vec<f32> {
+    w.chunks(cols)
+        .zip(s)
+        .flat_map(|(row, s)| row.iter().map(move |v| v * s))
+        .collect()
+}
+
+/// `t · w` for `w` `[t.len(), cols]`: a bias row.
+fn row_times(t: &[f32], w: &[f32], cols: usize) -> Vec<f32> {
+    let mut out = vec![0.0; cols];
+    for (row, t) in w.chunks(cols).zip(t) {
+        out.iter_mut().zip(row).for_each(|(o, v)| *o += t * v);
+    }
+    out
+}
+
+/// `pooled · s + t` per center: the pooled half after BN₁ `[N, d]`.
+fn normalize_pooled(pooled: &[f32], s: &[f32], t: &[f32]) -> Vec<f32> {
+    let d = s.len();
+    pooled
+        .iter()
+        .enumerate()
+        .map(|(i, g)| g * s[i % d] + t[i % d])
+        .collect()
+}
+
+/// The training (batch statistics) or evaluation (fixed statistics) forward.
+///
+/// # Shapes
+/// - `x`: `[N·P, d]` (≥ 0, zero in padded rows), `mask`: `[N·P]` (1.0 real, 0.0 padded)
+/// - returns the output `[N·P, O]` (zero in padded rows) and what the backward needs
+pub fn forward(
+    x: &[f32],
+    mask: &[f32],
+    params: BlockParams,
+    dims: BlockDims,
+    norm: Normalization,
+) -> (Vec<f32>, BlockSaved) {
+    let BlockDims {
+        d_in: d,
+        d_hidden: h,
+        d_out: o,
+        ..
+    } = dims;
+    let (rows, p) = (dims.rows(), dims.points);
+    let (pooled, argmax) = pool_max(x, mask, dims);
+    let bn1 = match norm {
+        Normalization::Batch => batch_stats_bn1(x, mask, &pooled, dims),
+        Normalization::Fixed { bn1, .. } => bn1.clone(),
+    };
+    let (s1, t1) = fold(params.gamma1, params.beta1, &bn1, params.epsilon);
+    let (w1x, w1g) = params.w1.split_at(d * h);
+    // Per center: the point half's shift and the whole pooled half, `[N, H]`.
+    let yg = normalize_pooled(&pooled, &s1[d..], &t1[d..]);
+    let mut per_center = matmul_new(Mat::new(&yg, dims.centers, d), false, Mat::new(w1g, d, h), false);
+    let shift = row_times(&t1[..d], w1x, h);
+    for_rows(&mut per_center, h, |_, row| add(row, &shift));
+    let w1s = scale_rows(w1x, &s1[..d], h);
+    let mut hidden = matmul_new(Mat::new(x, rows, d), false, Mat::new(&w1s, d, h), false);
+    for_rows(&mut hidden, h, |r, row| {
+        if mask[r] == 0.0 {
+            return row.fill(0.0);
+        }
+        let c = &per_center[(r / p) * h..(r / p + 1) * h];
+        row.iter_mut().zip(c).for_each(|(v, c)| *v = (*v + c).max(0.0));
+    });
+    let bn2 = match norm {
+        Normalization::Batch => weighted_stats(&hidden, h, mask, mask.iter().sum::<f32>().max(1.0)),
+        Normalization::Fixed { bn2, .. } => bn2.clone(),
+    };
+    let (s2, t2) = fold(params.gamma2, params.beta2, &bn2, params.epsilon);
+    let bias2 = row_times(&t2, params.w2, o);
+    let w2s = scale_rows(params.w2, &s2, o);
+    let mut out = matmul_new(Mat::new(&hidden, rows, h), false, Mat::new(&w2s, h, o), false);
+    for_rows(&mut out, o, |r, row| {
+        if mask[r] == 0.0 {
+            return row.fill(0.0);
+        }
+        row.iter_mut().zip(&bias2).for_each(|(v, b)| *v = (*v + b).max(0.0));
+    });
+    (
+        out,
+        BlockSaved {
+            hidden,
+            pooled,
+            argmax,
+            bn1,
+            bn2,
+        },
+    )
+}
+
+/// BN₁'s batch statistics: the point half over real rows, the pooled half over the same rows
+/// (each center's pooled value counted once per real point).
+fn batch_stats_bn1(x: &[f32], mask: &[f32], pooled: &[f32], dims: BlockDims) -> BnStats {
+    let total = mask.iter().sum::<f32>().max(1.0);
+    let points = weighted_stats(x, dims.d_in, mask, total);
+    let centers = weighted_stats(pooled, dims.d_in, &counts(mask, dims), total);
+    BnStats {
+        mean: [points.mean, centers.mean].concat(),
+        var: [points.var, centers.var].concat(),
+    }
+}
+
+/// BatchNorm's backward over weighted rows (batch statistics): `dγ = Σ w dy x̂`, `dβ = Σ w dy`,
+/// and, written into `dy`, `dx = (γ/σ)(dy − w (dβ + x̂ dγ) / M)`, where the weight `w` is a
+/// row's multiplicity (1 for a point row; a center's real-point count for a pooled row, whose
+/// `dy` is already the sum over its points) and rows of weight 0 get 0.
+struct BnBackward<'a> {
+    x: &'a [f32],
+    stats: BnStats,
+    gamma: &'a [f32],
+    eps: f32,
+    weight: &'a [f32],
+    total: f32,
+}
+
+impl BnBackward<'_> {
+    /// Returns `(dγ, dβ)` and turns `dy` (`[rows, D]`) into `dx`.
+    fn run(&self, dy: &mut [f32]) -> (Vec<f32>, Vec<f32>) {
+        let (cols, mean) = (self.gamma.len(), &self.stats.mean);
+        let inv_sigma: Vec<f32> = self.stats.var.iter().map(|v| 1.0 / (v + self.eps).sqrt()).collect();
+        let x = |r: usize| &self.x[r * cols..(r + 1) * cols];
+        // A pooled row's dy is already the sum over its points: it counts once here.
+        let dyr = &*dy;
+        let [dbeta, dot] = col_sums(self.weight.len(), cols, |r, [db, dd]| {
+            let g = &dyr[r * cols..(r + 1) * cols];
+            add(db, g);
+            for ((d, g), (x, m)) in dd.iter_mut().zip(g).zip(x(r).iter().zip(mean)) {
+                *d += g * (x - m);
+            }
+        });
+        let dgamma: Vec<f32> = dot.iter().zip(&inv_sigma).map(|(d, s)| d * s).collect();
+        // dx = a (dy − w (b + (x − μ) c)), with a = γ/σ, b = dβ/M, c = dγ/(σ M).
+        let a: Vec<f32> = self.gamma.iter().zip(&inv_sigma).map(|(g, s)| g * s).collect();
+        let b: Vec<f32> = dbeta.iter().map(|d| d / self.total).collect();
+        let c: Vec<f32> = dgamma.iter().zip(&inv_sigma).map(|(d, s)| d * s / self.total).collect();
+        for_rows(dy, cols, |r, row| {
+            let w = self.weight[r];
+            if w == 0.0 {
+                return row.fill(0.0);
+            }
+            let (x, a, b, c, mean) = (&x(r)[..cols], &a[..cols], &b[..cols], &c[..cols], &mean[..cols]);
+            for j in 0..row.len().min(cols) {
+                row[j] = a[j] * (row[j] - w * (b[j] + (x[j] - mean[j]) * c[j]));
+            }
+        });
+        (dgamma, dbeta)
+    }
+}
+
+/// `dW = diag(s)(xᵀ dz) + t ⊗ Σ_rows dz`: the gradient of `BN(x) · W` with respect to `W`.
+fn folded_weight_grad(x: Mat, dz: Mat, s: &[f32], t: &[f32]) -> Vec<f32> {
+    let cols = dz.cols;
+    let mut grad = matmul_tn(x, dz);
+    let [colsum] = col_sums(dz.rows, cols, |r, [acc]| add(acc, &dz.data[r * cols..(r + 1) * cols]));
+    for_rows(&mut grad, cols, |i, row| {
+        row.iter_mut().zip(&colsum).for_each(|(g, c)| *g = s[i] * *g + t[i] * c);
+    });
+    grad
+}
+
+/// Zeroes `grad` where the ReLU that produced `out` was off.
+fn relu_backward(grad: &mut [f32], out: &[f32], cols: usize) {
+    for_rows(grad, cols, |r, row| {
+        let out = &out[r * cols..(r + 1) * cols];
+        row.iter_mut()
+            .zip(out)
+            .for_each(|(g, o)| *g = if *o > 0.0 { *g } else { 0.0 });
+    });
+}
+
+/// A training forward's results, as the backward reads them.
+#[derive(Debug, Clone, Copy)]
+pub struct Forward<'a> {
+    /// The output `[N·P, O]`.
+    pub out: &'a [f32],
+    /// The rest.
+    pub saved: &'a BlockSaved,
+}
+
+/// The backward of the training forward ([`Normalization::Batch`]).
+///
+/// # Shapes
+/// - `x`, `mask`: as in [`forward`]; `out`, `fwd`: its results; `d_out`: `[N·P, O]`
+pub fn backward(
+    x: &[f32],
+    mask: &[f32],
+    params: BlockParams,
+    dims: BlockDims,
+    fwd: Forward,
+    d_out: &[f32],
+) -> BlockGrads {
+    let total = mask.iter().sum::<f32>().max(1.0);
+    let second = second_layer_backward(mask, params, dims, fwd, d_out, total);
+    let first = first_layer_backward(x, mask, params, dims, fwd.saved, second.dz1, total);
+    BlockGrads {
+        x: first.dx,
+        gamma1: first.gamma1,
+        beta1: first.beta1,
+        w1: first.w1,
+        gamma2: second.gamma2,
+        beta2: second.beta2,
+        w2: second.w2,
+    }
+}
+
+/// The second layer's gradients, and the first layer's pre-activation gradient.
+struct SecondLayerGrads {
+    /// `[N·P, H]`.
+    dz1: Vec<f32>,
+    gamma2: Vec<f32>,
+    beta2: Vec<f32>,
+    w2: Vec<f32>,
+}
+
+/// BN₂ → fc2 → ReLU, backwards.
+fn second_layer_backward(
+    mask: &[f32],
+    params: BlockParams,
+    dims: BlockDims,
+    fwd: Forward,
+    d_out: &[f32],
+    total: f32,
+) -> SecondLayerGrads {
+    let (rows, h, o) = (dims.rows(), dims.d_hidden, dims.d_out);
+    let mut dz2 = d_out.to_vec();
+    relu_backward(&mut dz2, fwd.out, o);
+    let fwd = fwd.saved;
+    let (s2, t2) = fold(params.gamma2, params.beta2, &fwd.bn2, params.epsilon);
+    let w2 = folded_weight_grad(Mat::new(&fwd.hidden, rows, h), Mat::new(&dz2, rows, o), &s2, &t2);
+    let mut dz1 = matmul_new(Mat::new(&dz2, rows, o), false, Mat::new(params.w2, h, o), true);
+    let bn = BnBackward {
+        x: &fwd.hidden,
+        stats: fwd.bn2.clone(),
+        gamma: params.gamma2,
+        eps: params.epsilon,
+        weight: mask,
+        total,
+    };
+    let (gamma2, beta2) = bn.run(&mut dz1);
+    relu_backward(&mut dz1, &fwd.hidden, h);
+    SecondLayerGrads { dz1, gamma2, beta2, w2 }
+}
+
+/// The first layer's gradients and the input's.
+struct FirstLayerGrads {
+    dx: Vec<f32>,
+    gamma1: Vec<f32>,
+    beta1: Vec<f32>,
+    w1: Vec<f32>,
+}
+
+/// max-pool → BN₁ → fc1, backwards, from fc1's pre-activation gradient `dz1` `[N·P, H]`.
+fn first_layer_backward(
+    x: &[f32],
+    mask: &[f32],
+    params: BlockParams,
+    dims: BlockDims,
+    fwd: &BlockSaved,
+    dz1: Vec<f32>,
+    total: f32,
+) -> FirstLayerGrads {
+    let BlockDims {
+        centers,
+        points: p,
+        d_in: d,
+        d_hidden: h,
+        ..
+    } = dims;
+    let rows = dims.rows();
+    let (s1, t1) = fold(params.gamma1, params.beta1, &fwd.bn1, params.epsilon);
+    let (w1x, w1g) = params.w1.split_at(d * h);
+    // The pooled half's gradient, summed over each center's points `[N, H]`.
+    let mut dz_center = vec![0.0; centers * h];
+    for_rows(&mut dz_center, h, |n, row| {
+        for r in n * p..(n + 1) * p {
+            row.iter_mut().zip(&dz1[r * h..(r + 1) * h]).for_each(|(a, g)| *a += g);
+        }
+    });
+    let mut w1 = folded_weight_grad(Mat::new(x, rows, d), Mat::new(&dz1, rows, h), &s1[..d], &t1[..d]);
+    let yg = normalize_pooled(&fwd.pooled, &s1[d..], &t1[d..]);
+    let w1_pooled = matmul_tn(Mat::new(&yg, centers, d), Mat::new(&dz_center, centers, h));
+    w1.extend_from_slice(&w1_pooled);
+    let mut d_pooled = matmul_new(Mat::new(&dz_center, centers, h), false, Mat::new(w1g, d, h), true);
+    let mut dx = matmul_new(Mat::new(&dz1, rows, h), false, Mat::new(w1x, d, h), true);
+    drop(dz1);
+    let half = |from: usize, to: usize| BnStats {
+        mean: fwd.bn1.mean[from..to].to_vec(),
+        var: fwd.bn1.var[from..to].to_vec(),
+    };
+    let (eps, gamma) = (params.epsilon, params.gamma1.split_at(d));
+    let points = BnBackward {
+        x,
+        stats: half(0, d),
+        gamma: gamma.0,
+        eps,
+        weight: mask,
+        total,
+    };
+    let (gamma_x, beta_x) = points.run(&mut dx);
+    let counts = counts(mask, dims);
+    let pooled = BnBackward {
+        x: &fwd.pooled,
+        stats: half(d, 2 * d),
+        gamma: gamma.1,
+        eps,
+        weight: &counts,
+        total,
+    };
+    let (gamma_g, beta_g) = pooled.run(&mut d_pooled);
+    scatter_pooled(&mut dx, &d_pooled, fwd, mask, dims);
+    FirstLayerGrads {
+        dx,
+        gamma1: [gamma_x, gamma_g].concat(),
+        beta1: [beta_x, beta_g].concat(),
+        w1,
+    }
+}
+
+/// Routes each pooled value's gradient to the slot it was taken from (the max's backward),
+/// through the mask the composed block multiplies by before the max.
+fn scatter_pooled(dx: &mut [f32], grad_g: &[f32], fwd: &BlockSaved, mask: &[f32], dims: BlockDims) {
+    let (p, d) = (dims.points, dims.d_in);
+    for n in 0..dims.centers {
+        for c in 0..d {
+            let r = n * p + fwd.argmax[n * d + c] as usize;
+            dx[r * d + c] += grad_g[n * d + c] * mask[r];
+        }
+    }
+}

@@ -1,0 +1,12 @@
+//! The fused StarNet block: the block's forward and backward as one operation on raw f32 rows
+//! ([`kernel`]), bound into Burn's flex backend and its autodiff graph ([`op`]). One op replaces
+//! the dozens of small tensor operations (each an allocation and a pass over memory) that the
+//! composed block ([`crate::nn::StarNetBlock`] with `fused = false`) records; the composed block
+//! stays the reference and the path on other backends.
+
+mod gemm;
+pub mod kernel;
+mod rows;
+
+pub use gemm::{Mat, matmul, matmul_new, matmul_tn};
+pub mod op;
