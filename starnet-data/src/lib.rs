@@ -44,6 +44,7 @@ pub mod kitti;
 pub mod loader;
 mod par;
 pub mod sampling;
+pub mod settings;
 pub mod sim;
 
 pub use error::{DataError, Result};

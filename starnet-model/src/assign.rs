@@ -10,7 +10,8 @@
 use crate::coder::{direction_bin, encode};
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
-use starnet_data::geometry::iou_bev;
+use starnet_data::geometry::{PreparedBox, iou_bev_prepared};
+use starnet_data::settings::{Checked, InvalidSetting, within};
 
 /// Assignment thresholds.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -22,6 +23,21 @@ pub struct AssignConfig {
     pub bg_iou: f32,
     /// Force-match objects that got no foreground anchor.
     pub force_match: bool,
+}
+
+impl AssignConfig {
+    /// Checks that both thresholds are IoUs, the foreground one above 0 (keys relative to the
+    /// assignment table). The background threshold may exceed the foreground one: 1.0 makes
+    /// every anchor that is not foreground background (no ignore band).
+    pub fn validate(&self) -> Checked {
+        if !(self.fg_iou > 0.0 && self.fg_iou <= 1.0) {
+            return Err(InvalidSetting::new(
+                "fg_iou",
+                format!("{} is not an IoU in (0, 1]", self.fg_iou),
+            ));
+        }
+        within("bg_iou", self.bg_iou as f64, 0.0, 1.0)
+    }
 }
 
 impl Default for AssignConfig {
@@ -88,9 +104,12 @@ pub fn assign_targets(
     // Best object per anchor, and IoU matrix entries kept sparse via the bounding-circle filter.
     let mut best = vec![(-1i32, 0f32); n];
     let mut best_anchor = vec![(usize::MAX, 0f32); boxes.len()];
-    for (i, an) in anchors.iter().enumerate() {
-        for (j, b) in boxes.iter().enumerate() {
-            let iou = iou_bev(an, b);
+    // Corners and circles once per box, not once per pair: this loop is most of the loader's
+    // assignment time.
+    let prepared: Vec<PreparedBox> = boxes.iter().map(PreparedBox::new).collect();
+    for (i, an) in anchors.iter().map(PreparedBox::new).enumerate() {
+        for (j, b) in prepared.iter().enumerate() {
+            let iou = iou_bev_prepared(&an, b);
             if iou > best[i].1 {
                 best[i] = (j as i32, iou);
             }
@@ -150,6 +169,7 @@ pub fn assign_targets(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use starnet_data::geometry::iou_bev;
     use starnet_data::sampling::AnchorGrid;
 
     fn anchors(centers: &[[f32; 3]]) -> (Vec<Box3d>, usize) {

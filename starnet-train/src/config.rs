@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use starnet_data::augment::AugmentConfig;
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::{AnchorGrid, PipelineConfig, SliceConfig};
+use starnet_data::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive, within};
 use starnet_model::assign::AssignConfig;
 use starnet_model::loss::{HeadingLoss, LossConfig};
 use starnet_model::nms::{ClassNms, NmsConfig, Precedence};
@@ -98,13 +99,6 @@ pub struct StreamSection {
     pub scan_hz: f64,
     /// Where sweeps start, which way they turn, what a slice may read.
     pub slicing: SliceConfig,
-}
-
-impl StreamSection {
-    /// Whether training cuts sweeps into slices.
-    pub fn enabled(&self) -> bool {
-        !self.train_slices.is_empty()
-    }
 }
 
 /// Loss weights (see `starnet_model::loss`).
@@ -359,100 +353,163 @@ impl ExperimentConfig {
         }
     }
 
-    /// Checks values no type can express; the error names the key.
+    /// Checks values no type can express, section by section (each section's `validate`),
+    /// then the rules that join sections; the error names the key and `file`.
     pub fn validate(&self, file: &Path) -> Result<()> {
-        let bad = |key: &str, message: String| {
-            Err(TrainError::Config {
-                file: file.into(),
-                key: key.into(),
-                message,
-            })
-        };
-        if self.data.classes.is_empty() {
-            return bad("data.classes", "needs at least one class".into());
-        }
+        self.validate_settings().map_err(|e| TrainError::Config {
+            file: file.into(),
+            key: e.key,
+            message: e.message,
+        })
+    }
+
+    fn validate_settings(&self) -> Checked {
         let k = self.data.classes.len();
-        if self.nms.iou.len() != k || self.nms.score.len() != k {
-            return bad(
-                "nms.iou",
-                format!("nms.iou and nms.score need one value per class ({k})"),
-            );
-        }
-        if !(self.nms.vote_iou.is_empty() || self.nms.vote_iou.len() == k) {
-            return bad(
-                "nms.vote_iou",
-                format!("needs one value per class ({k}), or none to turn voting off"),
-            );
-        }
-        if let Some(v) = self.nms.vote_iou.iter().find(|v| !(0.0..=1.0).contains(*v)) {
-            return bad("nms.vote_iou", format!("{v} is not an IoU in [0, 1]"));
-        }
-        for (key, v) in [
-            ("train.epochs", self.train.epochs),
-            ("train.batch_size", self.train.batch_size),
-            ("pipeline.num_centers", self.pipeline.num_centers),
-            ("pipeline.gather.num_points", self.pipeline.gather.num_points),
-            ("eval.num_centers", self.eval.num_centers),
-            ("eval.num_points", self.eval.num_points),
-            ("eval.batch_size", self.eval.batch_size),
-        ] {
-            if v == 0 {
-                return bad(key, "must be at least 1".into());
-            }
-        }
-        if !(self.train.learning_rate > 0.0 && self.train.learning_rate.is_finite()) {
-            return bad(
-                "train.learning_rate",
-                format!("{} is not a positive rate", self.train.learning_rate),
-            );
-        }
-        if !(0.0..1.0).contains(&self.train.ema_decay) {
-            return bad(
-                "train.ema_decay",
-                format!("{} is not in [0, 1) (0 turns the EMA off)", self.train.ema_decay),
-            );
-        }
-        let margin = self.augment.object_margin;
-        if !(0.0..=starnet_data::augment::GTDB_CAPTURE_MARGIN).contains(&margin) {
-            return bad(
-                "augment.object_margin",
-                format!(
-                    "{margin} is not in [0, {}] m (the ground-truth database holds points that far out)",
-                    starnet_data::augment::GTDB_CAPTURE_MARGIN
-                ),
-            );
-        }
-        if !(self.pipeline.gather.radius.is_finite() && self.pipeline.gather.radius > 0.0) {
-            return bad(
-                "pipeline.gather.radius",
-                format!("{} is not a positive radius", self.pipeline.gather.radius),
-            );
-        }
-        if self.model.blocks.is_empty() || self.model.anchors.is_empty() {
-            return bad("model", "needs at least one block and one anchor".into());
-        }
-        if self.stream.train_slices.contains(&0) || self.stream.eval_slices == 0 {
-            return bad("stream.train_slices", "slice counts must be at least 1".into());
-        }
-        if !(self.stream.scan_hz.is_finite() && self.stream.scan_hz > 0.0) {
-            return bad(
-                "stream.scan_hz",
-                format!("{} is not a positive rate", self.stream.scan_hz),
-            );
-        }
+        self.data.validate().map_err(|e| e.within("data"))?;
+        self.pipeline.validate().map_err(|e| e.within("pipeline"))?;
+        self.augment.validate().map_err(|e| e.within("augment"))?;
+        self.model.validate().map_err(|e| e.within("model"))?;
+        self.assign.validate().map_err(|e| e.within("assign"))?;
+        self.loss.validate().map_err(|e| e.within("loss"))?;
+        self.nms.validate(k).map_err(|e| e.within("nms"))?;
+        self.train.validate().map_err(|e| e.within("train"))?;
+        self.eval.validate().map_err(|e| e.within("eval"))?;
+        self.stream.validate().map_err(|e| e.within("stream"))?;
         if self.stream.enabled() && self.pipeline.pool.camera_frustum {
-            return bad(
+            return Err(InvalidSetting::new(
                 "pipeline.pool.camera_frustum",
-                "slices of a sweep cover 360°: set it to false (and data.labels = \"label_360\")".into(),
-            );
+                "slices of a sweep cover 360°: set it to false (and data.labels = \"label_360\")",
+            ));
         }
         if self.stream.enabled() && self.pipeline.target != starnet_data::sampling::CenterTarget::All {
-            return bad(
+            return Err(InvalidSetting::new(
                 "pipeline.target",
-                "streaming spreads the centers over slices: use \"all\"".into(),
-            );
+                "streaming spreads the centers over slices: use \"all\"",
+            ));
         }
         Ok(())
+    }
+}
+
+impl DataSection {
+    /// At least one class.
+    pub fn validate(&self) -> Checked {
+        at_least_one("classes", self.classes.len())
+    }
+}
+
+impl ModelSection {
+    /// Positive widths, at least one block, and valid anchors.
+    pub fn validate(&self) -> Checked {
+        at_least_one("d_fc0", self.d_fc0)?;
+        at_least_one("blocks", self.blocks.len())?;
+        for (i, b) in self.blocks.iter().enumerate() {
+            at_least_one(&format!("blocks[{i}]"), b[0].min(b[1]))?;
+        }
+        at_least_one("d_offset", self.d_offset)?;
+        self.anchors.validate().map_err(|e| e.within("anchors"))
+    }
+}
+
+impl LossSection {
+    /// α is a probability weight, γ and the weights are ≥ 0, δ > 0.
+    pub fn validate(&self) -> Checked {
+        within("alpha", self.alpha, 0.0, 1.0)?;
+        non_negative("gamma", self.gamma)?;
+        positive("huber_delta", self.huber_delta)?;
+        for (key, w) in [
+            ("location_weight", self.location_weight),
+            ("dimension_weight", self.dimension_weight),
+            ("rotation_weight", self.rotation_weight),
+            ("localization_weight", self.localization_weight),
+            ("classification_weight", self.classification_weight),
+            ("direction_weight", self.direction_weight),
+        ] {
+            non_negative(key, w)?;
+        }
+        Ok(())
+    }
+}
+
+impl NmsSection {
+    /// One IoU and one score per class (of `classes`), voting for every class or none, each
+    /// value in [0, 1], and at least one box kept.
+    pub fn validate(&self, classes: usize) -> Checked {
+        if self.iou.len() != classes || self.score.len() != classes {
+            return Err(InvalidSetting::new(
+                "iou",
+                format!("nms.iou and nms.score need one value per class ({classes})"),
+            ));
+        }
+        if !(self.vote_iou.is_empty() || self.vote_iou.len() == classes) {
+            return Err(InvalidSetting::new(
+                "vote_iou",
+                format!("needs one value per class ({classes}), or none to turn voting off"),
+            ));
+        }
+        for (key, values) in [("iou", &self.iou), ("score", &self.score), ("vote_iou", &self.vote_iou)] {
+            if let Some(v) = values.iter().find(|v| !(0.0..=1.0).contains(*v)) {
+                return Err(InvalidSetting::new(
+                    key,
+                    format!("{v} is not an IoU or score in [0, 1]"),
+                ));
+            }
+        }
+        at_least_one("max_boxes", self.max_boxes)
+    }
+}
+
+impl TrainSection {
+    /// Counts ≥ 1, a positive rate and ε, non-negative decay start, clip norm and L2, an EMA
+    /// decay in [0, 1).
+    pub fn validate(&self) -> Checked {
+        at_least_one("epochs", self.epochs)?;
+        at_least_one("batch_size", self.batch_size)?;
+        positive("learning_rate", self.learning_rate)?;
+        non_negative("decay_start_epoch", self.decay_start_epoch)?;
+        positive("adam_epsilon", self.adam_epsilon as f64)?;
+        positive("grad_clip_norm", self.grad_clip_norm as f64)?;
+        non_negative("l2", self.l2 as f64)?;
+        if !(0.0..1.0).contains(&self.ema_decay) {
+            return Err(InvalidSetting::new(
+                "ema_decay",
+                format!("{} is not in [0, 1) (0 turns the EMA off)", self.ema_decay),
+            ));
+        }
+        at_least_one("workers", self.workers)?;
+        at_least_one("prefetch", self.prefetch)
+    }
+}
+
+impl EvalSection {
+    /// Counts ≥ 1.
+    pub fn validate(&self) -> Checked {
+        at_least_one("num_centers", self.num_centers)?;
+        at_least_one("num_points", self.num_points)?;
+        at_least_one("batch_size", self.batch_size)
+    }
+}
+
+impl StreamSection {
+    /// Whether training cuts sweeps into slices.
+    pub fn enabled(&self) -> bool {
+        !self.train_slices.is_empty()
+    }
+
+    /// Slice counts ≥ 1, a positive range and scan rate, a valid slicing.
+    pub fn validate(&self) -> Checked {
+        if self.train_slices.contains(&0) {
+            return Err(InvalidSetting::new("train_slices", "slice counts must be at least 1"));
+        }
+        at_least_one("eval_slices", self.eval_slices)?;
+        positive("scan_hz", self.scan_hz)?;
+        if self.eval_range.is_nan() || self.eval_range <= 0.0 {
+            return Err(InvalidSetting::new(
+                "eval_range",
+                format!("{} is not a positive range (inf: everything)", self.eval_range),
+            ));
+        }
+        self.slicing.validate().map_err(|e| e.within("slicing"))
     }
 }
 
@@ -811,6 +868,84 @@ mod tests {
         .unwrap();
         assert_eq!(c.pipeline.gather.metric, starnet_data::sampling::GatherMetric::Cylinder);
         assert!(c.model_config().direction_classifier);
+    }
+
+    #[test]
+    fn every_range_rule_rejects_a_bad_value_naming_its_key() {
+        let dir = tempfile::tempdir().unwrap();
+        let ok = write(dir.path(), "a.toml", "");
+        let cases = [
+            ("data.classes=[]", "data.classes"),
+            ("pipeline.num_centers=0", "pipeline.num_centers"),
+            ("pipeline.pool.x_range=[10.0, 0.0]", "pipeline.pool.x_range"),
+            ("pipeline.pool.y_range=[1.0, -1.0]", "pipeline.pool.y_range"),
+            ("pipeline.pool.z_range=[0.0, -1.0]", "pipeline.pool.z_range"),
+            ("pipeline.gather.num_points=0", "pipeline.gather.num_points"),
+            ("pipeline.gather.radius=-1.0", "pipeline.gather.radius"),
+            ("augment.object_margin=-0.1", "augment.object_margin"),
+            ("augment.box_rotation.max=-0.1", "augment.box_rotation.max"),
+            ("augment.flip_probability=1.5", "augment.flip_probability"),
+            ("augment.global_rotation.max=-1.0", "augment.global_rotation.max"),
+            ("augment.scaling_range=[1.05, 0.95]", "augment.scaling_range"),
+            ("augment.scaling_range=[0.0, 1.0]", "augment.scaling_range"),
+            ("augment.z_shift_sigma=-1.0", "augment.z_shift_sigma"),
+            ("augment.ring_dropout_width=-0.1", "augment.ring_dropout_width"),
+            ("model.d_fc0=0", "model.d_fc0"),
+            ("model.blocks=[]", "model.blocks"),
+            ("model.blocks=[[0, 64]]", "model.blocks[0]"),
+            ("model.d_offset=0", "model.d_offset"),
+            ("model.anchors.grid=0", "model.anchors.grid"),
+            ("model.anchors.extent=-1.0", "model.anchors.extent"),
+            ("model.anchors.rotations=[]", "model.anchors.rotations"),
+            ("model.anchors.priors=[]", "model.anchors.priors"),
+            (
+                "model.anchors.priors=[{size = [3.9, 0.0, 1.5], z = -1.0}]",
+                "model.anchors.priors[0].size",
+            ),
+            ("assign.fg_iou=0.0", "assign.fg_iou"),
+            ("assign.fg_iou=1.2", "assign.fg_iou"),
+            ("assign.bg_iou=-0.1", "assign.bg_iou"),
+            ("loss.alpha=1.5", "loss.alpha"),
+            ("loss.gamma=-1.0", "loss.gamma"),
+            ("loss.huber_delta=0.0", "loss.huber_delta"),
+            ("loss.location_weight=-1.0", "loss.location_weight"),
+            ("loss.dimension_weight=-1.0", "loss.dimension_weight"),
+            ("loss.rotation_weight=-1.0", "loss.rotation_weight"),
+            ("loss.localization_weight=-1.0", "loss.localization_weight"),
+            ("loss.classification_weight=-1.0", "loss.classification_weight"),
+            ("loss.direction_weight=-1.0", "loss.direction_weight"),
+            ("nms.iou=[1.5]", "nms.iou"),
+            ("nms.score=[-0.1]", "nms.score"),
+            ("nms.vote_iou=[1.5]", "nms.vote_iou"),
+            ("nms.max_boxes=0", "nms.max_boxes"),
+            ("train.epochs=0", "train.epochs"),
+            ("train.batch_size=0", "train.batch_size"),
+            ("train.learning_rate=0.0", "train.learning_rate"),
+            ("train.decay_start_epoch=-1.0", "train.decay_start_epoch"),
+            ("train.adam_epsilon=0.0", "train.adam_epsilon"),
+            ("train.grad_clip_norm=0.0", "train.grad_clip_norm"),
+            ("train.l2=-1.0", "train.l2"),
+            ("train.ema_decay=1.0", "train.ema_decay"),
+            ("train.workers=0", "train.workers"),
+            ("train.prefetch=0", "train.prefetch"),
+            ("eval.num_centers=0", "eval.num_centers"),
+            ("eval.num_points=0", "eval.num_points"),
+            ("eval.batch_size=0", "eval.batch_size"),
+            ("stream.train_slices=[4, 0]", "stream.train_slices"),
+            ("stream.eval_slices=0", "stream.eval_slices"),
+            ("stream.scan_hz=0.0", "stream.scan_hz"),
+            ("stream.eval_range=0.0", "stream.eval_range"),
+            (
+                "stream.slicing.start_azimuth_deg=inf",
+                "stream.slicing.start_azimuth_deg",
+            ),
+        ];
+        for (set, key) in cases {
+            match load_config(&ok, &[set.into()]) {
+                Err(TrainError::Config { key: k, .. }) => assert_eq!(k, key, "{set}"),
+                other => panic!("{set}: expected an error naming {key}, got {other:?}"),
+            }
+        }
     }
 
     #[test]

@@ -42,8 +42,8 @@ pub struct GtEntry {
 impl GtEntry {
     /// The entry's points inside its box grown by `margin` (at most [`GTDB_CAPTURE_MARGIN`]).
     pub fn points_within(&self, margin: f32) -> impl Iterator<Item = &Point> {
-        let grown = self.b.grown(margin.min(GTDB_CAPTURE_MARGIN));
-        self.points.iter().filter(move |p| grown.contains([p[0], p[1], p[2]]))
+        let inside = self.b.grown(margin.min(GTDB_CAPTURE_MARGIN)).containment();
+        self.points.iter().filter(move |p| inside([p[0], p[1], p[2]]))
     }
 }
 

@@ -13,6 +13,7 @@ pub use paste::{DbPasteConfig, paste_from_database};
 pub use transforms::{Scene, flip_y, rotate_box, rotate_z, scale, shift_z};
 
 use crate::Point;
+use crate::settings::{Checked, InvalidSetting, non_negative, ordered_range, positive, within};
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
@@ -88,6 +89,32 @@ impl Default for AugmentConfig {
 }
 
 impl AugmentConfig {
+    /// Checks every range and sign (keys relative to the augmentation table).
+    pub fn validate(&self) -> Checked {
+        within(
+            "object_margin",
+            self.object_margin as f64,
+            0.0,
+            GTDB_CAPTURE_MARGIN as f64,
+        )
+        .map_err(|e| {
+            InvalidSetting::new(
+                e.key,
+                format!("{} (the ground-truth database holds points that far out)", e.message),
+            )
+        })?;
+        non_negative("box_rotation.max", self.box_rotation.max as f64)?;
+        within("flip_probability", self.flip_probability as f64, 0.0, 1.0)?;
+        non_negative("global_rotation.max", self.global_rotation.max as f64)?;
+        let [lo, hi] = self.scaling_range;
+        positive("scaling_range", lo as f64)?;
+        positive("scaling_range", hi as f64)?;
+        ordered_range("scaling_range", self.scaling_range)?;
+        non_negative("z_shift_sigma", self.z_shift_sigma as f64)?;
+        within("ring_dropout_width", self.ring_dropout_width as f64, 0.0, PI as f64)?;
+        Ok(())
+    }
+
     /// Every step off: the identity.
     pub fn none() -> Self {
         Self {

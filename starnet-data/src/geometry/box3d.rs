@@ -128,10 +128,22 @@ impl Box3d {
 
     /// Whether `p` (x, y, z) lies inside the box or on its surface.
     pub fn contains(&self, p: [f32; 3]) -> bool {
-        let [u, v, w] = self.to_local(p);
+        self.containment()(p)
+    }
+
+    /// [`Self::contains`] as a test with the rotation computed once, for testing many points
+    /// (the same arithmetic as [`Self::to_local`], so the same answers).
+    pub fn containment(&self) -> impl Fn([f32; 3]) -> bool + Copy + use<> {
+        let (s, c) = self.heading.sin_cos();
         // A small tolerance keeps points sampled on a face inside despite rounding.
         const EPS: f32 = 1e-5;
-        u.abs() <= 0.5 * self.dx + EPS && v.abs() <= 0.5 * self.dy + EPS && w.abs() <= 0.5 * self.dz + EPS
+        let (x, y, z) = (self.x, self.y, self.z);
+        let half = [0.5 * self.dx + EPS, 0.5 * self.dy + EPS, 0.5 * self.dz + EPS];
+        move |p: [f32; 3]| {
+            let (dx, dy) = (p[0] - x, p[1] - y);
+            let (u, v, w) = (c * dx + s * dy, -s * dx + c * dy, p[2] - z);
+            u.abs() <= half[0] && v.abs() <= half[1] && w.abs() <= half[2]
+        }
     }
 
     /// The box grown by `margin` metres on its four sides and its top, its bottom left where it
@@ -154,12 +166,13 @@ impl Box3d {
             let r = self.bev_radius() + 1e-3;
             r * r
         };
+        let inside = self.containment();
         cloud
             .iter()
             .enumerate()
             .filter(|(_, p)| {
                 let (dx, dy) = (p[0] - self.x, p[1] - self.y);
-                dx * dx + dy * dy <= r2 && self.contains([p[0], p[1], p[2]])
+                dx * dx + dy * dy <= r2 && inside([p[0], p[1], p[2]])
             })
             .map(|(i, _)| i)
             .collect()
@@ -281,6 +294,15 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn containment_is_the_local_frame_test(x in -50f32..50., y in -50f32..50., h in -4f32..4., u in -3f32..3., v in -2f32..2., w in -1.5f32..1.5) {
+            let b = Box3d::new(x, y, -1.0, 4.0, 2.0, 1.5, h);
+            let p = b.from_local([u, v, w]);
+            let [lu, lv, lw] = b.to_local(p);
+            let want = lu.abs() <= 2.0 + 1e-5 && lv.abs() <= 1.0 + 1e-5 && lw.abs() <= 0.75 + 1e-5;
+            prop_assert_eq!(b.contains(p), want);
+        }
+
         #[test]
         fn local_round_trip(x in -50f32..50., y in -50f32..50., h in -4f32..4., px in -60f32..60., py in -60f32..60., pz in -3f32..3.) {
             let b = Box3d::new(x, y, 0.5, 4.0, 2.0, 1.5, h);

@@ -13,12 +13,62 @@ pub enum IouKind {
 
 /// Footprint intersection area, 0 when the bounding circles do not touch.
 fn bev_intersection(a: &Box3d, b: &Box3d) -> f64 {
-    let (dx, dy) = ((a.x - b.x) as f64, (a.y - b.y) as f64);
-    let r = (a.bev_radius() + b.bev_radius()) as f64;
-    if dx * dx + dy * dy > r * r {
+    if circles_apart(a, b, a.bev_radius(), b.bev_radius()) {
         return 0.0;
     }
     convex_intersection_area(&a.corners_bev_f64(), &b.corners_bev_f64())
+}
+
+fn circles_apart(a: &Box3d, b: &Box3d, ra: f32, rb: f32) -> bool {
+    let (dx, dy) = ((a.x - b.x) as f64, (a.y - b.y) as f64);
+    let r = (ra + rb) as f64;
+    dx * dx + dy * dy > r * r
+}
+
+/// A box with its footprint's corners and bounding circle computed once, for the many IoUs of
+/// an assignment or a matrix; [`iou_bev_prepared`] and [`iou_3d_prepared`] give exactly what
+/// [`iou_bev`] and [`iou_3d`] give on the boxes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PreparedBox {
+    /// The box.
+    pub b: Box3d,
+    radius: f32,
+    corners: [[f64; 2]; 4],
+}
+
+impl PreparedBox {
+    /// Prepares `b`.
+    pub fn new(b: &Box3d) -> Self {
+        Self {
+            b: *b,
+            radius: b.bev_radius(),
+            corners: b.corners_bev_f64(),
+        }
+    }
+}
+
+fn bev_intersection_prepared(a: &PreparedBox, b: &PreparedBox) -> f64 {
+    if circles_apart(&a.b, &b.b, a.radius, b.radius) {
+        return 0.0;
+    }
+    convex_intersection_area(&a.corners, &b.corners)
+}
+
+/// [`iou_bev`] of prepared boxes.
+pub fn iou_bev_prepared(a: &PreparedBox, b: &PreparedBox) -> f32 {
+    let inter = bev_intersection_prepared(a, b);
+    ratio(inter, a.b.bev_area() as f64, b.b.bev_area() as f64)
+}
+
+/// [`iou_3d`] of prepared boxes.
+pub fn iou_3d_prepared(a: &PreparedBox, b: &PreparedBox) -> f32 {
+    let ((a0, a1), (b0, b1)) = (a.b.z_range(), b.b.z_range());
+    let dz = (a1.min(b1) - a0.max(b0)) as f64;
+    if dz <= 0.0 {
+        return 0.0;
+    }
+    let inter = bev_intersection_prepared(a, b) * dz;
+    ratio(inter, a.b.volume() as f64, b.b.volume() as f64)
 }
 
 /// IoU of two areas (or volumes) given their intersection; 0 for a degenerate union.
@@ -60,10 +110,15 @@ pub fn iou_3d(a: &Box3d, b: &Box3d) -> f32 {
 /// z ranges) are apart are 0 without clipping, which makes sparse scenes cheap.
 pub fn iou_matrix(a: &[Box3d], b: &[Box3d], kind: IouKind) -> Vec<f32> {
     let f = match kind {
-        IouKind::Bev => iou_bev,
-        IouKind::ThreeD => iou_3d,
+        IouKind::Bev => iou_bev_prepared,
+        IouKind::ThreeD => iou_3d_prepared,
     };
-    a.iter().flat_map(|x| b.iter().map(move |y| f(x, y))).collect()
+    let b: Vec<PreparedBox> = b.iter().map(PreparedBox::new).collect();
+    let mut m = Vec::with_capacity(a.len() * b.len());
+    for x in a.iter().map(PreparedBox::new) {
+        m.extend(b.iter().map(|y| f(&x, y)));
+    }
+    m
 }
 
 #[cfg(test)]
@@ -180,6 +235,13 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn prepared_boxes_give_the_same_ious(a in arb_box(), b in arb_box()) {
+            let (pa, pb) = (PreparedBox::new(&a), PreparedBox::new(&b));
+            prop_assert_eq!(iou_bev_prepared(&pa, &pb), iou_bev(&a, &b));
+            prop_assert_eq!(iou_3d_prepared(&pa, &pb), iou_3d(&a, &b));
+        }
+
         #[test]
         fn symmetric_and_bounded(a in arb_box(), b in arb_box()) {
             let (ab, ba) = (iou_bev(&a, &b), iou_bev(&b, &a));

@@ -21,8 +21,10 @@ pub fn polygon_area(poly: &[[f64; 2]]) -> f64 {
 /// assert!((convex_intersection_area(&a, &b) - 1.0).abs() < 1e-12);
 /// ```
 pub fn convex_intersection_area(subject: &[[f64; 2]], clip: &[[f64; 2]]) -> f64 {
-    let mut out: Vec<[f64; 2]> = subject.to_vec();
-    let mut input = Vec::with_capacity(8);
+    // Each clipping edge adds at most one vertex, so two boxes (8 + 4 at most) stay on the
+    // stack: rotated IoU runs this for every anchor near an object, on every training frame.
+    let mut out: Polygon = subject.iter().copied().collect();
+    let mut input = Polygon::new();
     for i in 0..clip.len() {
         if out.is_empty() {
             return 0.0;
@@ -35,13 +37,16 @@ pub fn convex_intersection_area(subject: &[[f64; 2]], clip: &[[f64; 2]]) -> f64 
     if out.len() < 3 { 0.0 } else { polygon_area(&out) }
 }
 
+/// A clipped polygon's vertices.
+type Polygon = smallvec::SmallVec<[[f64; 2]; 12]>;
+
 /// > 0 when `p` is left of the directed line a→b (inside for a counter-clockwise polygon).
 fn side(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {
     (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
 }
 
 /// One Sutherland–Hodgman step: keep the part of `poly` left of the line a→b.
-fn clip_by_edge(poly: &[[f64; 2]], a: [f64; 2], b: [f64; 2], out: &mut Vec<[f64; 2]>) {
+fn clip_by_edge(poly: &[[f64; 2]], a: [f64; 2], b: [f64; 2], out: &mut Polygon) {
     for i in 0..poly.len() {
         let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
         let (sp, sq) = (side(a, b, p), side(a, b, q));

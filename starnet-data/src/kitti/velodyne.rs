@@ -15,23 +15,22 @@ pub fn decode_points(bytes: &[u8], path: &Path) -> Result<Vec<Point>> {
         });
     }
     const FIELDS: [&str; 4] = ["x", "y", "z", "reflectance"];
-    bytes
-        .chunks_exact(16)
-        .enumerate()
-        .map(|(index, chunk)| {
-            let p: Point =
-                std::array::from_fn(|k| f32::from_le_bytes(chunk[4 * k..4 * k + 4].try_into().expect("4 bytes")));
-            match p.iter().position(|v| !v.is_finite()) {
-                None => Ok(p),
-                Some(k) => Err(DataError::NonFinitePoint {
-                    path: path.into(),
-                    index,
-                    field: FIELDS[k],
-                    value: p[k],
-                }),
-            }
-        })
-        .collect()
+    // A loop into a sized vector rather than collecting `Result`s, which cannot reserve.
+    let mut points = Vec::with_capacity(bytes.len() / 16);
+    for (index, chunk) in bytes.chunks_exact(16).enumerate() {
+        let p: Point =
+            std::array::from_fn(|k| f32::from_le_bytes(chunk[4 * k..4 * k + 4].try_into().expect("4 bytes")));
+        if let Some(k) = p.iter().position(|v| !v.is_finite()) {
+            return Err(DataError::NonFinitePoint {
+                path: path.into(),
+                index,
+                field: FIELDS[k],
+                value: p[k],
+            });
+        }
+        points.push(p);
+    }
+    Ok(points)
 }
 
 /// Encodes points as KITTI velodyne bytes.

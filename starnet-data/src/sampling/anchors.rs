@@ -6,6 +6,7 @@
 
 use crate::Box3d;
 use crate::kitti::ObjectClass;
+use crate::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
@@ -33,6 +34,30 @@ pub struct AnchorGrid {
 }
 
 impl AnchorGrid {
+    /// Checks the grid side, the extent, and that there is at least one finite rotation and
+    /// one prior of positive size (keys relative to the anchors table).
+    pub fn validate(&self) -> Checked {
+        at_least_one("grid", self.grid)?;
+        non_negative("extent", self.extent as f64)?;
+        at_least_one("rotations", self.rotations.len())?;
+        if let Some(r) = self.rotations.iter().find(|r| !r.is_finite()) {
+            return Err(InvalidSetting::new("rotations", format!("{r} is not an angle")));
+        }
+        at_least_one("priors", self.priors.len())?;
+        for (i, p) in self.priors.iter().enumerate() {
+            for s in p.size {
+                positive(&format!("priors[{i}].size"), s as f64)?;
+            }
+            if !p.z.is_finite() {
+                return Err(InvalidSetting::new(
+                    format!("priors[{i}].z"),
+                    format!("{} is not a height", p.z),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// KITTI car anchors: 5 × 5 offsets over ±1.294 m, 4 rotations, the SECOND car size,
     /// centre z −1.0 (lingvo `StarNetCarModel0701`, with the length put first).
     pub fn kitti_car() -> Self {

@@ -6,6 +6,7 @@
 
 use super::Centers;
 use crate::Point;
+use crate::settings::{Checked, at_least_one, positive};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -23,6 +24,14 @@ pub enum GatherMetric {
     /// about 1 m above a car's middle, so a ball of radius R reaches only about 0.9 R sideways
     /// at car height; the cylinder reaches R at every height.
     Cylinder,
+}
+
+impl GatherConfig {
+    /// Checks P ≥ 1 and R > 0 (keys relative to the gather table).
+    pub fn validate(&self) -> Checked {
+        at_least_one("num_points", self.num_points)?;
+        positive("radius", self.radius as f64)
+    }
 }
 
 impl GatherMetric {

@@ -4,6 +4,7 @@
 
 use crate::Point;
 use crate::kitti::{Calib, ImageSize};
+use crate::settings::{Checked, ordered_range};
 use serde::{Deserialize, Serialize};
 
 /// The center pool's filters.
@@ -21,6 +22,13 @@ pub struct CenterPoolConfig {
 }
 
 impl CenterPoolConfig {
+    /// Checks that each range is `[min, max]` (keys relative to the pool table).
+    pub fn validate(&self) -> Checked {
+        ordered_range("x_range", self.x_range)?;
+        ordered_range("y_range", self.y_range)?;
+        ordered_range("z_range", self.z_range)
+    }
+
     /// The authors' KITTI pool: x ≥ 0, |y| ≤ 40, z ≥ −1.35, camera frustum.
     pub fn kitti() -> Self {
         Self {

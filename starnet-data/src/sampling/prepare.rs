@@ -7,6 +7,7 @@ use super::{
 };
 use crate::augment::{AugmentConfig, AugmentDraw, GtDatabase, Scene, augment, ring_dropout};
 use crate::kitti::{Frame, ObjectClass};
+use crate::settings::{Checked, at_least_one};
 use crate::{Box3d, Point};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -28,6 +29,15 @@ pub struct PipelineConfig {
     pub center_z: CenterZ,
     /// Neighbourhood size and radius.
     pub gather: GatherConfig,
+}
+
+impl PipelineConfig {
+    /// Checks the center count, the pool and the gather (keys relative to the pipeline table).
+    pub fn validate(&self) -> Checked {
+        at_least_one("num_centers", self.num_centers)?;
+        self.pool.validate().map_err(|e| e.within("pool"))?;
+        self.gather.validate().map_err(|e| e.within("gather"))
+    }
 }
 
 impl Default for PipelineConfig {

@@ -11,6 +11,7 @@
 use super::{Augmentation, Centers, PipelineConfig, PreparedFrame, center_pool, gather, sample_centers};
 use crate::augment::{augment, ring_dropout};
 use crate::kitti::{Frame, ObjectClass};
+use crate::settings::{Checked, within};
 use crate::sim::sub_seed;
 use crate::{Box3d, Point};
 use rand::{Rng, SeedableRng};
@@ -42,6 +43,11 @@ impl Default for SliceConfig {
 }
 
 impl SliceConfig {
+    /// Checks that the start azimuth is a finite angle (keys relative to the slicing table).
+    pub fn validate(&self) -> Checked {
+        within("start_azimuth_deg", self.start_azimuth_deg as f64, -360.0, 360.0)
+    }
+
     /// The slice (of `n`) that holds BEV position `(x, y)`.
     pub fn slice_of(&self, x: f32, y: f32, n: usize) -> usize {
         let az = y.atan2(x).to_degrees();

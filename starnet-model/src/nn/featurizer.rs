@@ -2,7 +2,7 @@
 //! StarNet blocks, and a readout concatenating the masked mean over P of fc0's output and of
 //! every block's output into one cell feature per center.
 
-use super::{StarNetBlock, StarNetBlockConfig, linear, masked_mean};
+use super::{StarNetBlock, StarNetBlockConfig, linear};
 use burn::module::Module;
 use burn::nn::Linear;
 use burn::prelude::*;
@@ -78,10 +78,15 @@ impl Featurizer {
         let m = mask.reshape([b * c, p, 1]);
         // fc0 has a bias: zero the padded rows so every later max and mean can ignore them.
         let mut h = relu(self.fc0.forward(points.reshape([b * c, p, f]))) * m.clone(); // [BC, P, d0]
-        let mut readout = vec![masked_mean(h.clone(), m.clone())];
+        // Every h is zero in padded rows (fc0's by the mask, a block's because its BatchNorm
+        // zeroes them and its Linears have no bias), so the masked mean needs no mask product:
+        // the sum over P divided by the real-point count, counted once.
+        let count = m.clone().sum_dim(1).clamp_min(1.0); // [BC, 1, 1]
+        let mean = |h: &Tensor<3>| h.clone().sum_dim(1) / count.clone();
+        let mut readout = vec![mean(&h)];
         for block in &self.blocks {
             h = block.forward(h, m.clone());
-            readout.push(masked_mean(h.clone(), m.clone()));
+            readout.push(mean(&h));
         }
         let cell = Tensor::cat(readout, 2); // [BC, 1, cell]
         let [_, _, d] = cell.dims();
