@@ -53,6 +53,15 @@ pub fn non_negative(key: &str, v: f64) -> Checked {
     }
 }
 
+/// `v` is finite (any sign).
+pub fn finite(key: &str, v: f64) -> Checked {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(InvalidSetting::new(key, format!("{v} is not a finite number")))
+    }
+}
+
 /// `v` lies in `[lo, hi]`.
 pub fn within(key: &str, v: f64, lo: f64, hi: f64) -> Checked {
     if (lo..=hi).contains(&v) {
@@ -95,6 +104,7 @@ mod tests {
         }
         assert!(non_negative("k", 0.0).is_ok());
         assert!(non_negative("k", -1e-9).is_err() && non_negative("k", f64::NAN).is_err());
+        assert!(finite("k", -3.0).is_ok() && finite("k", f64::INFINITY).is_err() && finite("k", f64::NAN).is_err());
         assert!(within("k", 0.0, 0.0, 1.0).is_ok() && within("k", 1.0, 0.0, 1.0).is_ok());
         assert!(within("k", 1.01, 0.0, 1.0).is_err() && within("k", f64::NAN, 0.0, 1.0).is_err());
         assert!(at_least_one("k", 1).is_ok() && at_least_one("k", 0).is_err());

@@ -6,7 +6,7 @@
 
 use crate::Box3d;
 use crate::kitti::ObjectClass;
-use crate::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive};
+use crate::settings::{Checked, at_least_one, finite, non_negative, positive};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
@@ -40,20 +40,15 @@ impl AnchorGrid {
         at_least_one("grid", self.grid)?;
         non_negative("extent", self.extent as f64)?;
         at_least_one("rotations", self.rotations.len())?;
-        if let Some(r) = self.rotations.iter().find(|r| !r.is_finite()) {
-            return Err(InvalidSetting::new("rotations", format!("{r} is not an angle")));
+        for &r in &self.rotations {
+            finite("rotations", r as f64)?;
         }
         at_least_one("priors", self.priors.len())?;
         for (i, p) in self.priors.iter().enumerate() {
             for s in p.size {
                 positive(&format!("priors[{i}].size"), s as f64)?;
             }
-            if !p.z.is_finite() {
-                return Err(InvalidSetting::new(
-                    format!("priors[{i}].z"),
-                    format!("{} is not a height", p.z),
-                ));
-            }
+            finite(&format!("priors[{i}].z"), p.z as f64)?;
         }
         Ok(())
     }

@@ -43,7 +43,8 @@ impl Default for SliceConfig {
 }
 
 impl SliceConfig {
-    /// Checks that the start azimuth is a finite angle (keys relative to the slicing table).
+    /// Checks that the start azimuth lies within one turn either way, degrees (keys relative to
+    /// the slicing table).
     pub fn validate(&self) -> Checked {
         within("start_azimuth_deg", self.start_azimuth_deg as f64, -360.0, 360.0)
     }
