@@ -46,6 +46,7 @@ mod par;
 pub mod sampling;
 pub mod settings;
 pub mod sim;
+pub mod summary;
 
 pub use error::{DataError, Result};
 pub use geometry::{Box3d, wrap_angle};

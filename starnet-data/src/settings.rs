@@ -80,6 +80,22 @@ pub fn at_least_one(key: &str, n: usize) -> Checked {
     }
 }
 
+/// The widest layer a setting may ask for: StarNet's widest is 384, and a width far beyond
+/// any CPU's memory (a typo, a corrupt file) should be an error, not an allocation failure.
+pub const MAX_WIDTH: usize = 4096;
+
+/// A layer width: 1 ≤ `n` ≤ [`MAX_WIDTH`].
+pub fn width(key: &str, n: usize) -> Checked {
+    if (1..=MAX_WIDTH).contains(&n) {
+        Ok(())
+    } else {
+        Err(InvalidSetting::new(
+            key,
+            format!("{n} is not a width in [1, {MAX_WIDTH}]"),
+        ))
+    }
+}
+
 /// `[min, max]` with min ≤ max, neither NaN (either may be infinite: an open side).
 pub fn ordered_range(key: &str, r: [f32; 2]) -> Checked {
     if r[0] <= r[1] {

@@ -11,6 +11,7 @@ use crate::nn::ModelOutput;
 use burn::prelude::*;
 use burn::tensor::activation::{relu, sigmoid};
 use serde::{Deserialize, Serialize};
+use starnet_data::settings::{Checked, non_negative, positive, within};
 
 /// How the heading residual is compared.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -22,8 +23,8 @@ pub enum HeadingLoss {
     Wrap,
 }
 
-/// Loss settings (the authors' Waymo defaults).
-#[derive(Config, Debug)]
+/// Loss settings (the authors' Waymo defaults); the `[loss]` section of an experiment config.
+#[derive(Config, Debug, PartialEq)]
 pub struct LossConfig {
     /// Focal α.
     #[config(default = 0.25)]
@@ -55,6 +56,26 @@ pub struct LossConfig {
     /// Weight of the direction-bin cross-entropy in the total (OpenPCDet's 0.2).
     #[config(default = 0.2)]
     pub direction_weight: f64,
+}
+
+impl LossConfig {
+    /// α is a probability weight, γ and the weights are ≥ 0, δ > 0.
+    pub fn validate(&self) -> Checked {
+        within("alpha", self.alpha, 0.0, 1.0)?;
+        non_negative("gamma", self.gamma)?;
+        positive("huber_delta", self.huber_delta)?;
+        for (key, w) in [
+            ("location_weight", self.location_weight),
+            ("dimension_weight", self.dimension_weight),
+            ("rotation_weight", self.rotation_weight),
+            ("localization_weight", self.localization_weight),
+            ("classification_weight", self.classification_weight),
+            ("direction_weight", self.direction_weight),
+        ] {
+            non_negative(key, w)?;
+        }
+        Ok(())
+    }
 }
 
 /// Per-anchor targets of a batch, as tensors.

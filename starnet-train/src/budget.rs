@@ -4,14 +4,13 @@
 //! one curve per points value (`budget_gflop.png`) and AP against latency (`budget_latency.png`).
 
 use crate::Result;
-use crate::config::ExperimentConfig;
+use crate::detector::{Budget, Detector};
 use crate::render::{LinePlot, Series};
-use crate::train::{Budget, EvalReport, evaluate};
+use crate::table::Table;
+use crate::train::{EvalOptions, EvalReport, evaluate};
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::KittiDataset;
 use starnet_data::sampling::CenterTarget;
-use starnet_model::nn::StarNet;
-use std::fmt::Write as _;
 use std::path::Path;
 
 /// The budgets of a sweep: every (centers, points) pair, centers outermost.
@@ -36,13 +35,13 @@ pub fn budget_dir_name(b: &Budget) -> String {
     }
 }
 
-/// Evaluates `model` at every budget, calling `on_report` after each; with `out`, writes each
-/// budget's results into `out/{budget_dir_name}/` and, for more than one budget, the sweep's
-/// table and plots into `out/`.
+/// Evaluates `detector` at every budget, calling `on_report` after each; with `out`, writes
+/// each budget's results into `out/{budget_dir_name}/` and, for more than one budget, the
+/// sweep's table and plots into `out/`.
 pub fn sweep(
-    model: &StarNet,
-    cfg: &ExperimentConfig,
+    detector: &Detector,
     dataset: &KittiDataset,
+    opts: EvalOptions,
     budgets: &[Budget],
     out: Option<&Path>,
     on_report: &mut dyn FnMut(&EvalReport),
@@ -50,7 +49,7 @@ pub fn sweep(
     let mut reports = Vec::with_capacity(budgets.len());
     for b in budgets {
         let dir = out.map(|o| o.join(budget_dir_name(b)));
-        let report = evaluate(model, cfg, dataset, *b, dir.as_deref())?;
+        let report = evaluate(&detector.at_budget(*b), dataset, opts, dir.as_deref())?;
         if let Some(d) = &dir {
             let json = serde_json::to_string_pretty(&report).expect("reports serialise");
             atomic_write(&d.join("eval.json"), json.as_bytes())?;
@@ -70,9 +69,17 @@ pub fn budget_table(reports: &[EvalReport]) -> String {
         .first()
         .and_then(|r| r.classes.first())
         .map_or("-".into(), |c| c.class.to_string());
-    let mut t = format!(
-        "| centers | points | GFLOP / frame | latency mean (ms) | p95 (ms) | {class} 3D R40 mod | BEV R40 mod | LEVEL_1 AP | LEVEL_1 APH |\n|---|---|---|---|---|---|---|---|---|\n"
-    );
+    let mut t = Table::new([
+        "centers".to_string(),
+        "points".into(),
+        "GFLOP / frame".into(),
+        "latency mean (ms)".into(),
+        "p95 (ms)".into(),
+        format!("{class} 3D R40 mod"),
+        "BEV R40 mod".into(),
+        "LEVEL_1 AP".into(),
+        "LEVEL_1 APH".into(),
+    ]);
     for r in reports {
         let (three_d, bev) = r
             .classes
@@ -83,13 +90,19 @@ pub fn budget_table(reports: &[EvalReport]) -> String {
             CenterTarget::All => r.num_centers.to_string(),
             t => format!("{} ({t})", r.num_centers),
         };
-        let _ = writeln!(
-            t,
-            "| {centers} | {} | {:.2} | {:.1} | {:.1} | {three_d:.2} | {bev:.2} | {:.2} | {:.2} |",
-            r.num_points, r.gflop_per_frame, r.latency_ms_mean, r.latency_ms_p95, waymo.ap, waymo.aph
-        );
+        t.row([
+            centers,
+            r.num_points.to_string(),
+            format!("{:.2}", r.gflop_per_frame),
+            format!("{:.1}", r.latency_ms_mean),
+            format!("{:.1}", r.latency_ms_p95),
+            format!("{three_d:.2}"),
+            format!("{bev:.2}"),
+            format!("{:.2}", waymo.ap),
+            format!("{:.2}", waymo.aph),
+        ]);
     }
-    t
+    t.to_string()
 }
 
 /// The two sweep plots: AP against GFLOP per frame (one curve per points value, by centers) and

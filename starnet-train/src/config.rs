@@ -12,9 +12,9 @@ use serde::{Deserialize, Serialize};
 use starnet_data::augment::AugmentConfig;
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::{AnchorGrid, PipelineConfig, SliceConfig};
-use starnet_data::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive, within};
+use starnet_data::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive, width};
 use starnet_model::assign::AssignConfig;
-use starnet_model::loss::{HeadingLoss, LossConfig};
+use starnet_model::loss::LossConfig;
 use starnet_model::nms::{ClassNms, NmsConfig, Precedence};
 use starnet_model::nn::{FeaturizerConfig, StarNetConfig};
 use std::path::{Path, PathBuf};
@@ -101,32 +101,6 @@ pub struct StreamSection {
     pub slicing: SliceConfig,
 }
 
-/// Loss weights (see `starnet_model::loss`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LossSection {
-    /// Focal α.
-    pub alpha: f64,
-    /// Focal γ.
-    pub gamma: f64,
-    /// Huber δ.
-    pub huber_delta: f64,
-    /// Position weight inside localisation.
-    pub location_weight: f64,
-    /// Size weight inside localisation.
-    pub dimension_weight: f64,
-    /// Heading weight inside localisation.
-    pub rotation_weight: f64,
-    /// Localisation weight in the total.
-    pub localization_weight: f64,
-    /// Classification weight in the total.
-    pub classification_weight: f64,
-    /// `sin` (direction-invariant) or `wrap` (direction-aware).
-    pub heading: HeadingLoss,
-    /// Weight of the direction-bin cross-entropy (with `model.direction_classifier`).
-    pub direction_weight: f64,
-}
-
 /// Post-processing.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -206,8 +180,8 @@ pub struct ExperimentConfig {
     pub model: ModelSection,
     /// Target assignment.
     pub assign: AssignConfig,
-    /// Loss.
-    pub loss: LossSection,
+    /// Loss (`starnet_model::loss::LossConfig`, the authors' Waymo defaults).
+    pub loss: LossConfig,
     /// Post-processing.
     pub nms: NmsSection,
     /// Optimisation.
@@ -220,7 +194,6 @@ pub struct ExperimentConfig {
 
 impl Default for ExperimentConfig {
     fn default() -> Self {
-        let lc = LossConfig::new();
         Self {
             seed: 0,
             data: DataSection {
@@ -245,18 +218,7 @@ impl Default for ExperimentConfig {
                 fused_blocks: true,
             },
             assign: AssignConfig::default(),
-            loss: LossSection {
-                alpha: lc.alpha,
-                gamma: lc.gamma,
-                huber_delta: lc.huber_delta,
-                location_weight: lc.location_weight,
-                dimension_weight: lc.dimension_weight,
-                rotation_weight: lc.rotation_weight,
-                localization_weight: lc.localization_weight,
-                classification_weight: lc.classification_weight,
-                heading: lc.heading,
-                direction_weight: lc.direction_weight,
-            },
+            loss: LossConfig::new(),
             nms: NmsSection {
                 iou: vec![0.083],
                 score: vec![0.321],
@@ -315,22 +277,6 @@ impl ExperimentConfig {
     /// A split of the config's dataset, read with the config's labels.
     pub fn dataset(&self, split: &str) -> Result<KittiDataset> {
         Ok(KittiDataset::open(&self.data.root, Some(split))?.with_labels(self.data.labels))
-    }
-
-    /// The loss's Burn config.
-    pub fn loss_config(&self) -> LossConfig {
-        let l = &self.loss;
-        LossConfig::new()
-            .with_alpha(l.alpha)
-            .with_gamma(l.gamma)
-            .with_huber_delta(l.huber_delta)
-            .with_location_weight(l.location_weight)
-            .with_dimension_weight(l.dimension_weight)
-            .with_rotation_weight(l.rotation_weight)
-            .with_localization_weight(l.localization_weight)
-            .with_classification_weight(l.classification_weight)
-            .with_heading(l.heading)
-            .with_direction_weight(l.direction_weight)
     }
 
     /// NMS settings per class.
@@ -399,35 +345,20 @@ impl DataSection {
 }
 
 impl ModelSection {
-    /// Positive widths, at least one block, and valid anchors.
+    /// Widths in [1, `MAX_WIDTH`] (the LSTM's when it has one), at least one block, and valid
+    /// anchors.
     pub fn validate(&self) -> Checked {
-        at_least_one("d_fc0", self.d_fc0)?;
+        width("d_fc0", self.d_fc0)?;
         at_least_one("blocks", self.blocks.len())?;
         for (i, b) in self.blocks.iter().enumerate() {
-            at_least_one(&format!("blocks[{i}]"), b[0].min(b[1]))?;
+            width(&format!("blocks[{i}]"), b[0])?;
+            width(&format!("blocks[{i}]"), b[1])?;
         }
-        at_least_one("d_offset", self.d_offset)?;
+        width("d_offset", self.d_offset)?;
+        if self.lstm_hidden > 0 {
+            width("lstm_hidden", self.lstm_hidden)?;
+        }
         self.anchors.validate().map_err(|e| e.within("anchors"))
-    }
-}
-
-impl LossSection {
-    /// α is a probability weight, γ and the weights are ≥ 0, δ > 0.
-    pub fn validate(&self) -> Checked {
-        within("alpha", self.alpha, 0.0, 1.0)?;
-        non_negative("gamma", self.gamma)?;
-        positive("huber_delta", self.huber_delta)?;
-        for (key, w) in [
-            ("location_weight", self.location_weight),
-            ("dimension_weight", self.dimension_weight),
-            ("rotation_weight", self.rotation_weight),
-            ("localization_weight", self.localization_weight),
-            ("classification_weight", self.classification_weight),
-            ("direction_weight", self.direction_weight),
-        ] {
-            non_negative(key, w)?;
-        }
-        Ok(())
     }
 }
 
@@ -645,15 +576,15 @@ pub fn load_config(path: &Path, sets: &[String]) -> Result<ExperimentConfig> {
     resolve(read_with_bases(path, 0)?, sets, path)
 }
 
-/// Reads an experiment from TOML text (e.g. the config embedded in an export), over the
-/// defaults; errors name `origin`.
-pub fn parse_config(text: &str, origin: &Path) -> Result<ExperimentConfig> {
+/// Reads an experiment from TOML text (e.g. the config embedded in an export), then `sets`,
+/// over the defaults; errors name `origin`.
+pub fn parse_config(text: &str, origin: &Path, sets: &[String]) -> Result<ExperimentConfig> {
     let user = text.parse::<Table>().map_err(|e| TrainError::Config {
         file: origin.into(),
         key: "(syntax)".into(),
         message: e.to_string().trim().to_string(),
     })?;
-    resolve(user, &[], origin)
+    resolve(user, sets, origin)
 }
 
 /// `user` with `sets` applied, key-checked and merged over the defaults, validated.
@@ -894,6 +825,9 @@ mod tests {
             ("model.blocks=[]", "model.blocks"),
             ("model.blocks=[[0, 64]]", "model.blocks[0]"),
             ("model.d_offset=0", "model.d_offset"),
+            ("model.d_fc0=5000", "model.d_fc0"),
+            ("model.blocks=[[64, 100000]]", "model.blocks[0]"),
+            ("model.lstm_hidden=9999", "model.lstm_hidden"),
             ("model.anchors.grid=0", "model.anchors.grid"),
             ("model.anchors.extent=-1.0", "model.anchors.extent"),
             ("model.anchors.rotations=[]", "model.anchors.rotations"),

@@ -7,18 +7,12 @@
 //! `ROOT/…/calib/{id}.txt` when it exists. Without one the centers are sampled all around the
 //! sensor (no camera frustum) and only the JSON is written.
 
-use crate::config::ExperimentConfig;
-use crate::train::{Budget, to_kitti};
+use crate::detector::Detector;
+use crate::train::{frame_seed, to_kitti};
 use crate::{Result, TrainError};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::{Calib, Frame, ImageSize, ObjectClass, read_points, write_results};
-use starnet_data::sampling::prepare_frame;
-use starnet_data::sim::sub_seed;
-use starnet_model::batch::{decode_frame, make_input};
-use starnet_model::nn::StarNet;
 use std::path::{Path, PathBuf};
 
 /// One detected box.
@@ -79,25 +73,25 @@ fn calibration(bin: &Path, given: Option<&Path>) -> Result<Option<Calib>> {
     }
 }
 
-/// Runs `model` (validation mode) on each sweep and writes the results into `out`.
+/// Runs `detector` on each sweep and writes the results into `out`; sweep `i` samples from
+/// `frame_seed(seed, i)`, as an evaluation's frame `i` does. A sweep without a calibration gets
+/// centers all around the sensor.
 pub fn detect(
-    model: &StarNet,
-    cfg: &ExperimentConfig,
+    detector: &Detector,
+    seed: u64,
     inputs: &[PathBuf],
     calib: Option<&Path>,
     out: &Path,
 ) -> Result<Vec<SweepDetections>> {
     std::fs::create_dir_all(out).map_err(|e| starnet_data::DataError::io(out, e))?;
-    let device = starnet_model::backend::default_device();
-    let nms = cfg.nms_config();
+    let mut all_around = detector.clone();
+    all_around.pipeline.pool.camera_frustum = false;
     let mut all = Vec::with_capacity(inputs.len());
     for (i, bin) in inputs.iter().enumerate() {
         let id = bin
             .file_stem()
             .map_or_else(|| format!("{i:06}"), |s| s.to_string_lossy().into_owned());
         let found = calibration(bin, calib)?;
-        let mut pipeline = Budget::of(cfg).pipeline(&cfg.pipeline);
-        pipeline.pool.camera_frustum &= found.is_some();
         let frame = Frame {
             id: id.clone(),
             points: read_points(bin)?,
@@ -105,14 +99,12 @@ pub fn detect(
             calib: found.clone().unwrap_or_else(Calib::kitti_000000),
             image_size: ImageSize::KITTI,
         };
-        let mut rng = ChaCha8Rng::seed_from_u64(sub_seed(cfg.seed, 21, i as u64));
-        let prepared = prepare_frame(&frame, &pipeline, None, &[], &mut rng);
-        let output = model.forward(make_input(&[&prepared], &device));
-        let detections = decode_frame(&output, 0, &prepared, &cfg.model.anchors, &nms);
+        let used = if found.is_some() { detector } else { &all_around };
+        let detections = used.detect(&frame, frame_seed(seed, i));
         if found.is_some() {
             let lines: Vec<_> = detections
                 .iter()
-                .filter_map(|d| to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size))
+                .filter_map(|d| to_kitti(d, &detector.classes, &frame.calib, frame.image_size))
                 .collect();
             write_results(&out.join(format!("{id}.txt")), &lines)?;
         }
@@ -123,7 +115,7 @@ pub fn detect(
             detections: detections
                 .iter()
                 .map(|d| DetectedBox {
-                    class: cfg.data.classes[d.class],
+                    class: detector.classes[d.class],
                     score: d.score,
                     b: d.b.to_array(),
                 })

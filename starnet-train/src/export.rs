@@ -237,15 +237,22 @@ pub fn export(model: &StarNet, cfg: &ExperimentConfig, out: &Path) -> Result<Vec
 }
 
 /// Reads an exported folder's `model.safetensors`: the model, built from the config in its
-/// metadata.
-pub fn load_exported(dir: &Path) -> Result<(StarNet, ExperimentConfig)> {
+/// metadata with `sets` overrides applied.
+pub fn load_exported(dir: &Path, sets: &[String]) -> Result<(StarNet, ExperimentConfig)> {
     let path = dir.join("model.safetensors");
     let bytes = std::fs::read(&path).map_err(|e| starnet_data::DataError::io(&path, e))?;
+    exported_from_bytes(&bytes, &path, sets)
+}
+
+/// The model and config of an export's `model.safetensors` bytes (the file `path`): a
+/// malformed file, another format or version, a bad embedded config or a tensor of the wrong
+/// name or shape is an error naming `path`.
+pub fn exported_from_bytes(bytes: &[u8], path: &Path, sets: &[String]) -> Result<(StarNet, ExperimentConfig)> {
     let err = |message: String| TrainError::Checkpoint {
-        path: path.clone(),
+        path: path.to_path_buf(),
         message,
     };
-    let (tensors, meta) = starnet_model::export::read_safetensors(&bytes).map_err(|e| err(e.to_string()))?;
+    let (tensors, meta) = starnet_model::export::read_safetensors(bytes).map_err(|e| err(e.to_string()))?;
     if meta.get("format").map(String::as_str) != Some("starnet") {
         return Err(err("not a starnet export (no `format: starnet` in __metadata__)".into()));
     }
@@ -255,7 +262,7 @@ pub fn load_exported(dir: &Path) -> Result<(StarNet, ExperimentConfig)> {
             "format_version `{version}`; this build reads {FORMAT_VERSION}"
         )));
     }
-    let cfg = crate::config::parse_config(meta.get("config").map_or("", String::as_str), &path)?;
+    let cfg = crate::config::parse_config(meta.get("config").map_or("", String::as_str), path, sets)?;
     let model = cfg.model_config().init(&starnet_model::backend::default_device());
     let model = starnet_model::export::load_weights(model, &tensors).map_err(|e| err(e.to_string()))?;
     Ok((model, cfg))
@@ -284,7 +291,7 @@ mod tests {
         let (_, meta) = read_safetensors(&std::fs::read(dir.path().join("model.safetensors")).unwrap()).unwrap();
         assert_eq!(meta["format_version"], FORMAT_VERSION.to_string());
         // The reloaded weights, built from the embedded config, give the golden outputs exactly.
-        let (reloaded, embedded) = load_exported(dir.path()).unwrap();
+        let (reloaded, embedded) = load_exported(dir.path(), &[]).unwrap();
         assert_eq!(embedded, cfg);
         let (golden_file, _) =
             read_safetensors(&std::fs::read(dir.path().join("golden.safetensors")).unwrap()).unwrap();

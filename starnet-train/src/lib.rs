@@ -9,6 +9,7 @@ pub mod config;
 pub mod coverage;
 pub mod curves;
 pub mod detect;
+pub mod detector;
 pub mod error;
 pub mod eval;
 pub mod export;
@@ -17,7 +18,14 @@ pub mod prepare;
 pub mod render;
 pub mod stream;
 pub mod synth;
+pub mod table;
 pub mod temporal;
 pub mod train;
+pub mod trained;
 
 pub use error::{Result, TrainError};
+
+// The README's code blocks compile as doctests: its library examples are the API as it stands.
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+struct ReadmeDoctests;

@@ -6,6 +6,7 @@
 use super::{GtDatabase, Scene};
 use crate::geometry::iou_bev;
 use crate::kitti::ObjectClass;
+use crate::{Box3d, Point};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -49,6 +50,9 @@ pub fn paste_from_database(
     rng: &mut impl Rng,
 ) -> Vec<usize> {
     let mut pasted = Vec::new();
+    // Per pasted object, where its points start in the cloud and the grown box that covers
+    // the points already there.
+    let mut covers: Vec<(usize, Box3d)> = Vec::new();
     for (&class, &target) in &cfg.max_per_class {
         let have = scene.classes.iter().filter(|c| **c == class).count();
         let want = target.saturating_sub(have);
@@ -80,16 +84,7 @@ pub fn paste_from_database(
             if scene.boxes.iter().any(|b| iou_bev(b, &e.b) > 0.0) {
                 continue;
             }
-            if cfg.remove_covered_points {
-                let inside = e.b.grown(margin).points_inside(&scene.points);
-                let mut keep = vec![true; scene.points.len()];
-                inside.into_iter().for_each(|k| keep[k] = false);
-                let mut k = 0;
-                scene.points.retain(|_| {
-                    k += 1;
-                    keep[k - 1]
-                });
-            }
+            covers.push((scene.points.len(), e.b.grown(margin)));
             scene.points.extend(e.points_within(margin));
             scene.boxes.push(e.b);
             scene.classes.push(class);
@@ -97,7 +92,29 @@ pub fn paste_from_database(
             added += 1;
         }
     }
+    if cfg.remove_covered_points {
+        remove_covered(&mut scene.points, &covers);
+    }
     pasted
+}
+
+/// Removes the points each pasted object covers, in one pass: what removing, as each object
+/// is pasted, the points then in the cloud inside its grown box would leave. A point is
+/// dropped when a box pasted after it arrived holds it: the scene's own points by any pasted
+/// box, a pasted object's points by the boxes pasted after it. `covers` holds per pasted
+/// object, in paste order, the index its points start at and its grown box.
+fn remove_covered(points: &mut Vec<Point>, covers: &[(usize, Box3d)]) {
+    let tests: Vec<_> = covers.iter().map(|(_, b)| b.point_test()).collect();
+    let mut k = 0;
+    // `later`: the first cover pasted after point `k` arrived.
+    let mut later = 0;
+    points.retain(|p| {
+        while later < covers.len() && covers[later].0 <= k {
+            later += 1;
+        }
+        k += 1;
+        !tests[later..].iter().any(|holds| holds(p))
+    });
 }
 
 #[cfg(test)]

@@ -77,7 +77,11 @@ impl Pose {
 
 /// Reads a KITTI odometry pose file: one pose per non-empty line, twelve numbers each.
 pub fn read_poses(path: &Path) -> Result<Vec<Pose>> {
-    let text = read_text(path)?;
+    parse_poses(&read_text(path)?, path)
+}
+
+/// Parses the text of a pose file; errors name `path`, the line and the field.
+pub fn parse_poses(text: &str, path: &Path) -> Result<Vec<Pose>> {
     text.lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())

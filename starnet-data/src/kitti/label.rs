@@ -80,13 +80,33 @@ pub struct CameraBox {
     pub ry: f32,
 }
 
-/// KITTI difficulty of a ground-truth object (OpenPCDet's `get_kitti_obj_level`).
+/// KITTI difficulty of a ground-truth object, and the devkit's thresholds that define it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[allow(missing_docs)]
 pub enum Difficulty {
     Easy,
     Moderate,
     Hard,
+}
+
+impl Difficulty {
+    /// Easy, moderate, hard: the devkit's order (its `difficulty` index 0, 1, 2).
+    pub const ALL: [Difficulty; 3] = [Difficulty::Easy, Difficulty::Moderate, Difficulty::Hard];
+
+    /// The least 2D box height, pixels (`MIN_HEIGHT`).
+    pub fn min_height(self) -> f32 {
+        [40.0, 25.0, 25.0][self as usize]
+    }
+
+    /// The most occlusion level (`MAX_OCCLUSION`).
+    pub fn max_occlusion(self) -> i32 {
+        [0, 1, 2][self as usize]
+    }
+
+    /// The most truncation (`MAX_TRUNCATION`).
+    pub fn max_truncation(self) -> f32 {
+        [0.15, 0.3, 0.5][self as usize]
+    }
 }
 
 /// One line of a label or result file.
@@ -135,19 +155,14 @@ impl KittiObject {
         self.bbox[3] - self.bbox[1]
     }
 
-    /// Easy (height ≥ 40 px, truncation ≤ 0.15, occlusion 0), moderate (≥ 25, ≤ 0.30, ≤ 1),
-    /// hard (≥ 25, ≤ 0.50, ≤ 2), or `None` when the object meets none of them.
+    /// The easiest difficulty whose thresholds the object meets (OpenPCDet's
+    /// `get_kitti_obj_level`, height ≥ the minimum): easy (height ≥ 40 px, truncation ≤ 0.15,
+    /// occlusion 0), moderate (≥ 25, ≤ 0.30, ≤ 1), hard (≥ 25, ≤ 0.50, ≤ 2); `None` for none.
     pub fn difficulty(&self) -> Option<Difficulty> {
         let (h, t, o) = (self.bbox_height(), self.truncated, self.occluded);
-        if h >= 40.0 && t <= 0.15 && o <= 0 {
-            Some(Difficulty::Easy)
-        } else if h >= 25.0 && t <= 0.30 && o <= 1 {
-            Some(Difficulty::Moderate)
-        } else if h >= 25.0 && t <= 0.50 && o <= 2 {
-            Some(Difficulty::Hard)
-        } else {
-            None
-        }
+        Difficulty::ALL
+            .into_iter()
+            .find(|d| h >= d.min_height() && t <= d.max_truncation() && o <= d.max_occlusion())
     }
 
     /// Parses one line; `path` and `line` (1-based) locate errors.

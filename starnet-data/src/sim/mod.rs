@@ -26,7 +26,7 @@ pub use raycast::{Primitive, Scan, Terrain, scan};
 pub use scenery::Scenery;
 pub use sensor::{LidarConfig, hdl64_elevations};
 pub use shapes::{Ray, Shape};
-pub use sidecar::{SimObject, read_sidecar, write_sidecar};
+pub use sidecar::{SimObject, parse_sidecar, read_sidecar, write_sidecar};
 pub use stats::{DatasetStats, StatRow, dataset_stats};
 pub use street::{Ground, GroundView, Street};
 pub use synth::{

@@ -116,7 +116,11 @@ impl SimObject {
 
 /// Reads a sidecar file.
 pub fn read_sidecar(path: &Path) -> Result<Vec<SimObject>> {
-    let text = read_text(path)?;
+    parse_sidecar(&read_text(path)?, path)
+}
+
+/// Parses the text of a sidecar file; errors name `path` and the line.
+pub fn parse_sidecar(text: &str, path: &Path) -> Result<Vec<SimObject>> {
     text.lines()
         .enumerate()
         .map(|(i, l)| SimObject::parse_line(l, path, i + 1))

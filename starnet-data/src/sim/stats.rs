@@ -34,12 +34,8 @@ pub struct DatasetStats {
     pub rows: Vec<StatRow>,
 }
 
-fn quantile(v: &mut [f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * q).round() as usize]
+fn quantile(v: &[f64], q: f64) -> f64 {
+    crate::summary::quantile(v, q).unwrap_or(f64::NAN)
 }
 
 fn share(v: &[bool]) -> f64 {
@@ -178,11 +174,7 @@ pub fn dataset_stats(root: &std::path::Path) -> Result<DatasetStats> {
     );
     let car_dist = dist.entry(Car).or_default().clone();
     row("car distance from camera, mean (m)", mean(&car_dist), Some(30.8));
-    row(
-        "car distance, median (m)",
-        quantile(&mut car_dist.clone(), 0.5),
-        Some(28.6),
-    );
+    row("car distance, median (m)", quantile(&car_dist, 0.5), Some(28.6));
     for (i, kitti) in [10.0, 20.0, 24.0, 20.0, 13.0, 7.0, 4.5, 2.2].into_iter().enumerate() {
         let lo = 10.0 * i as f64;
         let share_bin = share(&car_dist.iter().map(|d| (lo..lo + 10.0).contains(d)).collect::<Vec<_>>());

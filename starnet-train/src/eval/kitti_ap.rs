@@ -16,7 +16,7 @@
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::{iou_3d, iou_bev};
-use starnet_data::kitti::{KittiObject, ObjectClass};
+use starnet_data::kitti::{Difficulty, KittiObject, ObjectClass};
 
 /// Which overlap the AP is computed on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -29,9 +29,6 @@ pub enum ApMetric {
     ThreeD,
 }
 
-const MIN_HEIGHT: [f32; 3] = [40.0, 25.0, 25.0];
-const MAX_OCCLUSION: [i32; 3] = [0, 1, 2];
-const MAX_TRUNCATION: [f32; 3] = [0.15, 0.3, 0.5];
 const SAMPLES: usize = 41;
 
 /// The official IoU threshold of a class (the same for the 2D, BEV and 3D metrics).
@@ -77,53 +74,71 @@ pub struct ClassAp {
     pub aos: Option<[Ap; 3]>,
 }
 
-/// `(ignored_gt, ignored_dt, dontcare boxes, valid gt count)` of one frame (`clean_data`):
-/// 0 = counts, 1 = ignored (matches are neither TP nor FP), −1 = not this class.
-fn clean(
-    gt: &[KittiObject],
-    dt: &[KittiObject],
-    class: ObjectClass,
-    diff: usize,
-) -> (Vec<i8>, Vec<i8>, Vec<[f32; 4]>, usize) {
-    let mut valid = 0;
-    let ignored_gt = gt
+/// What an object or detection is to the evaluation of a class at a difficulty (the devkit's
+/// codes 0, 1 and −1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Role {
+    /// Counts: a true positive, false positive or false negative.
+    Counted,
+    /// Matches are neither true nor false positives (too hard, a neighbouring class, too short).
+    Ignored,
+    /// Another class: not looked at.
+    Other,
+}
+
+/// One frame's cleaned data for a class and difficulty (`clean_data`).
+struct Cleaned {
+    gt: Vec<Role>,
+    dt: Vec<Role>,
+    dontcare: Vec<[f32; 4]>,
+    /// Ground-truth objects that count.
+    valid: usize,
+}
+
+fn clean(gt: &[KittiObject], dt: &[KittiObject], class: ObjectClass, diff: Difficulty) -> Cleaned {
+    let gt_roles: Vec<Role> = gt
         .iter()
         .map(|g| {
             let neighbour = matches!(
                 (class, g.class),
                 (ObjectClass::Pedestrian, ObjectClass::PersonSitting) | (ObjectClass::Car, ObjectClass::Van)
             );
-            let hard = g.occluded > MAX_OCCLUSION[diff]
-                || g.truncated > MAX_TRUNCATION[diff]
-                || g.bbox_height() <= MIN_HEIGHT[diff];
+            // The devkit's height rule is strict: exactly 25 px is too small.
+            let hard = g.occluded > diff.max_occlusion()
+                || g.truncated > diff.max_truncation()
+                || g.bbox_height() <= diff.min_height();
             if g.class == class && !hard {
-                valid += 1;
-                0
+                Role::Counted
             } else if neighbour || g.class == class {
-                1
+                Role::Ignored
             } else {
-                -1
+                Role::Other
             }
         })
         .collect();
-    let dc = gt
+    let dontcare = gt
         .iter()
         .filter(|g| g.class == ObjectClass::DontCare)
         .map(|g| g.bbox)
         .collect();
-    let ignored_dt = dt
+    let dt_roles = dt
         .iter()
         .map(|d| {
-            if d.bbox_height().abs() < MIN_HEIGHT[diff] {
-                1
+            if d.bbox_height().abs() < diff.min_height() {
+                Role::Ignored
             } else if d.class == class {
-                0
+                Role::Counted
             } else {
-                -1
+                Role::Other
             }
         })
         .collect();
-    (ignored_gt, ignored_dt, dc, valid)
+    Cleaned {
+        valid: gt_roles.iter().filter(|r| **r == Role::Counted).count(),
+        gt: gt_roles,
+        dt: dt_roles,
+        dontcare,
+    }
 }
 
 /// 2D IoU (criterion −1) or intersection over the first box's area (criterion 0).
@@ -165,100 +180,130 @@ fn overlaps(gt: &[KittiObject], dt: &[KittiObject], metric: ApMetric) -> Vec<Vec
         .collect()
 }
 
-/// One frame's cleaned data for a class and difficulty.
+/// One frame's cleaned data and overlaps for a class, difficulty and metric.
 struct FrameData<'a> {
     gt: &'a [KittiObject],
     dt: &'a [KittiObject],
     overlaps: Vec<Vec<f64>>,
-    ignored_gt: Vec<i8>,
-    ignored_dt: Vec<i8>,
-    dontcare: Vec<[f32; 4]>,
+    roles: Cleaned,
 }
 
-/// `(tp, fp, fn, similarity, matched scores)` — `compute_statistics_jit`, line for line.
-fn statistics(
-    f: &FrameData,
-    metric: ApMetric,
-    min_overlap: f64,
+/// What `compute_statistics_jit` returns for one frame at one score threshold (but its false
+/// negatives: the AP needs precision only, recall being the threshold sampling's).
+#[derive(Debug, Default)]
+struct Statistics {
+    tp: usize,
+    fp: usize,
+    /// Summed orientation similarity of the true positives (−1 without any box).
+    similarity: f64,
+    /// Scores of the true positives.
+    scores: Vec<f32>,
+}
+
+/// How `statistics` runs: at a score threshold counting false positives (and AOS), or
+/// collecting the scores of every match (`thresh` unused).
+#[derive(Debug, Clone, Copy)]
+struct Pass {
     thresh: f32,
     compute_fp: bool,
     compute_aos: bool,
-) -> (usize, usize, usize, f64, Vec<f32>) {
-    const NO_DETECTION: f32 = -10_000_000.0;
-    let n = f.dt.len();
-    let mut assigned = vec![false; n];
+}
+
+/// `compute_statistics_jit`, line for line.
+fn statistics(f: &FrameData, metric: ApMetric, min_overlap: f64, pass: Pass) -> Statistics {
     let below: Vec<bool> =
         f.dt.iter()
-            .map(|d| compute_fp && d.score.unwrap_or(0.0) < thresh)
+            .map(|d| pass.compute_fp && d.score.unwrap_or(0.0) < pass.thresh)
             .collect();
-    let (mut tp, mut fp, mut fn_) = (0usize, 0usize, 0usize);
-    let mut thresholds = Vec::new();
-    let mut deltas = Vec::new();
-    for i in 0..f.gt.len() {
-        if f.ignored_gt[i] == -1 {
-            continue;
-        }
-        let (mut det, mut valid, mut max_overlap, mut assigned_ignored) = (usize::MAX, NO_DETECTION, 0.0f64, false);
-        for j in 0..n {
-            if f.ignored_dt[j] == -1 || assigned[j] || below[j] {
-                continue;
-            }
-            let overlap = f.overlaps[j][i];
-            let score = f.dt[j].score.unwrap_or(0.0);
-            if !compute_fp && overlap > min_overlap && score > valid {
-                (det, valid) = (j, score);
-            } else if compute_fp
-                && overlap > min_overlap
-                && (overlap > max_overlap || assigned_ignored)
-                && f.ignored_dt[j] == 0
-            {
-                (max_overlap, det, valid, assigned_ignored) = (overlap, j, 1.0, false);
-            } else if compute_fp && overlap > min_overlap && valid == NO_DETECTION && f.ignored_dt[j] == 1 {
-                (det, valid, assigned_ignored) = (j, 1.0, true);
-            }
-        }
-        if valid == NO_DETECTION && f.ignored_gt[i] == 0 {
-            fn_ += 1;
-        } else if valid != NO_DETECTION && (f.ignored_gt[i] == 1 || f.ignored_dt[det] == 1) {
-            assigned[det] = true;
-        } else if valid != NO_DETECTION {
-            tp += 1;
-            thresholds.push(f.dt[det].score.unwrap_or(0.0));
-            if compute_aos {
-                deltas.push((f.gt[i].alpha - f.dt[det].alpha) as f64);
-            }
-            assigned[det] = true;
-        }
-    }
-    let mut similarity = 0.0;
-    if compute_fp {
-        fp = (0..n)
-            .filter(|&j| !(assigned[j] || f.ignored_dt[j] != 0 || below[j]))
-            .count();
-        if metric == ApMetric::Bbox {
-            let mut nstuff = 0;
-            for dc in &f.dontcare {
-                for j in 0..n {
-                    if assigned[j] || f.ignored_dt[j] != 0 || below[j] {
-                        continue;
-                    }
-                    if box2d_overlap(&f.dt[j].bbox, dc, true) > min_overlap {
-                        assigned[j] = true;
-                        nstuff += 1;
-                    }
-                }
-            }
-            fp -= nstuff;
-        }
-        if compute_aos {
-            similarity = if tp > 0 || fp > 0 {
+    let mut assigned = vec![false; f.dt.len()];
+    let (mut st, deltas) = match_ground_truth(f, min_overlap, pass, &below, &mut assigned);
+    if pass.compute_fp {
+        st.fp = false_positives(f, metric, min_overlap, &below, &mut assigned);
+        if pass.compute_aos {
+            st.similarity = if st.tp > 0 || st.fp > 0 {
                 deltas.iter().map(|d| (1.0 + d.cos()) / 2.0).sum()
             } else {
                 -1.0
             };
         }
     }
-    (tp, fp, fn_, similarity, thresholds)
+    st
+}
+
+/// The ground-truth loop of `compute_statistics_jit`: each object takes its best detection
+/// (by score, or with `compute_fp` by overlap, counted ones before ignored ones); true
+/// positives, false negatives, and the alpha differences of the true positives.
+fn match_ground_truth(
+    f: &FrameData,
+    min_overlap: f64,
+    pass: Pass,
+    below: &[bool],
+    assigned: &mut [bool],
+) -> (Statistics, Vec<f64>) {
+    const NO_DETECTION: f32 = -10_000_000.0;
+    let (gt_roles, dt_roles) = (&f.roles.gt, &f.roles.dt);
+    let mut st = Statistics::default();
+    let mut deltas = Vec::new();
+    for (i, &gt_role) in gt_roles.iter().enumerate() {
+        if gt_role == Role::Other {
+            continue;
+        }
+        let (mut det, mut valid, mut max_overlap, mut assigned_ignored) = (usize::MAX, NO_DETECTION, 0.0f64, false);
+        for j in 0..f.dt.len() {
+            if dt_roles[j] == Role::Other || assigned[j] || below[j] {
+                continue;
+            }
+            let overlap = f.overlaps[j][i];
+            let score = f.dt[j].score.unwrap_or(0.0);
+            if !pass.compute_fp && overlap > min_overlap && score > valid {
+                (det, valid) = (j, score);
+            } else if pass.compute_fp
+                && overlap > min_overlap
+                && (overlap > max_overlap || assigned_ignored)
+                && dt_roles[j] == Role::Counted
+            {
+                (max_overlap, det, valid, assigned_ignored) = (overlap, j, 1.0, false);
+            } else if pass.compute_fp && overlap > min_overlap && valid == NO_DETECTION && dt_roles[j] == Role::Ignored
+            {
+                (det, valid, assigned_ignored) = (j, 1.0, true);
+            }
+        }
+        if valid == NO_DETECTION {
+            // A false negative when the object counts (the AP needs none).
+            continue;
+        }
+        assigned[det] = true;
+        // A match with an ignored object or detection is neither a true nor a false positive.
+        if gt_role == Role::Counted && dt_roles[det] == Role::Counted {
+            st.tp += 1;
+            st.scores.push(f.dt[det].score.unwrap_or(0.0));
+            if pass.compute_aos {
+                deltas.push((f.gt[i].alpha - f.dt[det].alpha) as f64);
+            }
+        }
+    }
+    (st, deltas)
+}
+
+/// Unassigned counted detections above the threshold; in the 2D metric, those inside a
+/// DontCare region (intersection over the detection's area above the threshold) are not.
+fn false_positives(f: &FrameData, metric: ApMetric, min_overlap: f64, below: &[bool], assigned: &mut [bool]) -> usize {
+    let n = f.dt.len();
+    let open = |j: usize, assigned: &[bool]| !(assigned[j] || f.roles.dt[j] != Role::Counted || below[j]);
+    let fp = (0..n).filter(|&j| open(j, assigned)).count();
+    if metric != ApMetric::Bbox {
+        return fp;
+    }
+    let mut nstuff = 0;
+    for dc in &f.roles.dontcare {
+        for j in 0..n {
+            if open(j, assigned) && box2d_overlap(&f.dt[j].bbox, dc, true) > min_overlap {
+                assigned[j] = true;
+                nstuff += 1;
+            }
+        }
+    }
+    fp - nstuff
 }
 
 /// Score thresholds giving recall steps of about 1/40 (`get_thresholds`).
@@ -283,27 +328,21 @@ fn sample_thresholds(mut scores: Vec<f32>, num_gt: usize) -> Vec<f32> {
 fn curves(
     frames: &[(&[KittiObject], &[KittiObject])],
     class: ObjectClass,
-    diff: usize,
+    diff: Difficulty,
     metric: ApMetric,
     min_overlap: f64,
     aos: bool,
 ) -> ([f64; SAMPLES], [f64; SAMPLES]) {
-    let mut total_valid = 0;
     let data: Vec<FrameData> = frames
         .iter()
-        .map(|(gt, dt)| {
-            let (ignored_gt, ignored_dt, dontcare, valid) = clean(gt, dt, class, diff);
-            total_valid += valid;
-            FrameData {
-                gt,
-                dt,
-                overlaps: overlaps(gt, dt, metric),
-                ignored_gt,
-                ignored_dt,
-                dontcare,
-            }
+        .map(|(gt, dt)| FrameData {
+            gt,
+            dt,
+            overlaps: overlaps(gt, dt, metric),
+            roles: clean(gt, dt, class, diff),
         })
         .collect();
+    let total_valid: usize = data.iter().map(|f| f.roles.valid).sum();
     let (mut precision, mut orientation) = ([0.0; SAMPLES], [0.0; SAMPLES]);
     if total_valid == 0 {
         // The Python port divides by zero here; no object of the class means AP 0.
@@ -311,17 +350,29 @@ fn curves(
     }
     let scores: Vec<f32> = data
         .iter()
-        .flat_map(|f| statistics(f, metric, min_overlap, 0.0, false, false).4)
+        .flat_map(|f| {
+            let collect = Pass {
+                thresh: 0.0,
+                compute_fp: false,
+                compute_aos: false,
+            };
+            statistics(f, metric, min_overlap, collect).scores
+        })
         .collect();
     let thresholds = sample_thresholds(scores, total_valid);
     for (t, &thresh) in thresholds.iter().enumerate() {
         let (mut tp, mut fp, mut sim) = (0usize, 0usize, 0.0f64);
         for f in &data {
-            let (a, b, _, s, _) = statistics(f, metric, min_overlap, thresh, true, aos);
-            tp += a;
-            fp += b;
-            if s != -1.0 {
-                sim += s;
+            let pass = Pass {
+                thresh,
+                compute_fp: true,
+                compute_aos: aos,
+            };
+            let st = statistics(f, metric, min_overlap, pass);
+            tp += st.tp;
+            fp += st.fp;
+            if st.similarity != -1.0 {
+                sim += st.similarity;
             }
         }
         precision[t] = tp as f64 / (tp + fp) as f64;
@@ -351,7 +402,9 @@ pub fn kitti_ap(frames: &[(Vec<KittiObject>, Vec<KittiObject>)], classes: &[Obje
         .map(|&class| {
             let mo = official_min_overlap(class) as f64;
             let run = |metric, aos| -> ([Ap; 3], [Ap; 3]) {
-                let c: Vec<_> = (0..3).map(|d| curves(&refs, class, d, metric, mo, aos)).collect();
+                let c: Vec<_> = Difficulty::ALL
+                    .map(|d| curves(&refs, class, d, metric, mo, aos))
+                    .to_vec();
                 (
                     std::array::from_fn(|d| Ap::from_curve(&c[d].0)),
                     std::array::from_fn(|d| Ap::from_curve(&c[d].1)),

@@ -8,11 +8,11 @@ use crate::Result;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::{AugmentConfig, GtDatabase, Scene, augment};
-use starnet_data::kitti::{KittiDataset, ObjectClass, read_labels};
+use starnet_data::kitti::{Frame, KittiDataset, ObjectClass, read_labels};
 use starnet_data::sampling::{CenterPoolConfig, CenterZ, Centers, Sampler, center_pool, sample_centers};
 use starnet_data::sim::read_sidecar;
 use starnet_data::{Box3d, DataError, Point};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Extent and resolution of a bird's-eye view (LiDAR-frame metres).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -236,38 +236,9 @@ pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opt
     let mut rng = ChaCha8Rng::seed_from_u64(extra.seed);
     let mut title = format!("FRAME {id}");
     if extra.augment {
-        let db_path = dataset.root().join("gt_database.bin");
-        let db = if db_path.is_file() {
-            Some(GtDatabase::read(&db_path)?)
-        } else {
-            None
-        };
-        let draw = augment(&mut scene, &AugmentConfig::default(), db.as_ref(), &mut rng);
-        title += &format!(
-            "  AUGMENTED: +{} PASTED, ROT {:.2}, SCALE {:.3}{}",
-            draw.pasted.len(),
-            draw.rotation,
-            draw.scale,
-            if draw.flipped { ", FLIPPED" } else { "" }
-        );
+        title += &augment_scene(dataset, &mut scene, &mut rng)?;
     }
-    let centers = match (&extra.given_centers, extra.centers) {
-        (Some(given), _) => {
-            title += &format!("  {} CENTERS, {} SEEDED FROM T-1", given.len(), given.num_seeded);
-            given.clone()
-        }
-        (None, Some((sampler, n))) => {
-            let pool_cfg = if extra.all_around {
-                CenterPoolConfig::all_around(opts.reach())
-            } else {
-                CenterPoolConfig::kitti()
-            };
-            let pool = center_pool(&scene.points, &pool_cfg, Some((&frame.calib, frame.image_size)));
-            title += &format!("  {n} {sampler:?} CENTERS").to_uppercase();
-            sample_centers(&scene.points, &pool, n, sampler, &[], CenterZ::Point, &mut rng)
-        }
-        (None, None) => sample_centers(&[], &[], 0, Sampler::Random, &[], CenterZ::Point, &mut rng),
-    };
+    let centers = draw_centers(&frame, &scene, extra, opts, &mut rng, &mut title);
     let gt: Vec<BevBox> = scene
         .boxes
         .iter()
@@ -280,25 +251,7 @@ pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opt
         .collect();
     let preds = match &extra.results {
         None => Vec::new(),
-        Some(dir) => {
-            let path = dir.join(format!("{id}.txt"));
-            if !path.is_file() {
-                return Err(DataError::MissingFile {
-                    frame: id.to_string(),
-                    path,
-                }
-                .into());
-            }
-            read_labels(&path)?
-                .iter()
-                .filter(|o| o.class != ObjectClass::DontCare)
-                .map(|o| BevBox {
-                    class: o.class,
-                    b: frame.calib.label_to_box(&o.cam),
-                    score: o.score,
-                })
-                .collect()
-        }
+        Some(dir) => read_predictions(&dir.join(format!("{id}.txt")), &frame)?,
     };
     let mut canvas = render_bev(&scene.points, &gt, &preds, opts, &title);
     // Seeded centers last and larger, so FPS centers never hide them.
@@ -312,6 +265,74 @@ pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opt
         canvas.fill_rect(u as i64 - r, v as i64 - r, u as i64 + r + 1, v as i64 + r + 1, colour);
     }
     Ok(canvas)
+}
+
+/// The training augmentation on `scene` (pasting from the root's database when it has one);
+/// what was drawn, for the title.
+fn augment_scene(dataset: &KittiDataset, scene: &mut Scene, rng: &mut ChaCha8Rng) -> Result<String> {
+    let db_path = dataset.root().join("gt_database.bin");
+    let db = if db_path.is_file() {
+        Some(GtDatabase::read(&db_path)?)
+    } else {
+        None
+    };
+    let draw = augment(scene, &AugmentConfig::default(), db.as_ref(), rng);
+    Ok(format!(
+        "  AUGMENTED: +{} PASTED, ROT {:.2}, SCALE {:.3}{}",
+        draw.pasted.len(),
+        draw.rotation,
+        draw.scale,
+        if draw.flipped { ", FLIPPED" } else { "" }
+    ))
+}
+
+/// The centers to draw: the given (seeded) ones, or `extra.centers` sampled from the scene;
+/// says which in the title.
+fn draw_centers(
+    frame: &Frame,
+    scene: &Scene,
+    extra: &RenderOptions,
+    opts: &BevOptions,
+    rng: &mut ChaCha8Rng,
+    title: &mut String,
+) -> Centers {
+    match (&extra.given_centers, extra.centers) {
+        (Some(given), _) => {
+            *title += &format!("  {} CENTERS, {} SEEDED FROM T-1", given.len(), given.num_seeded);
+            given.clone()
+        }
+        (None, Some((sampler, n))) => {
+            let pool_cfg = if extra.all_around {
+                CenterPoolConfig::all_around(opts.reach())
+            } else {
+                CenterPoolConfig::kitti()
+            };
+            let pool = center_pool(&scene.points, &pool_cfg, Some((&frame.calib, frame.image_size)));
+            *title += &format!("  {n} {sampler:?} CENTERS").to_uppercase();
+            sample_centers(&scene.points, &pool, n, sampler, &[], CenterZ::Point, rng)
+        }
+        (None, None) => sample_centers(&[], &[], 0, Sampler::Random, &[], CenterZ::Point, rng),
+    }
+}
+
+/// A KITTI result file's boxes (DontCare aside) in the LiDAR frame of `frame`.
+fn read_predictions(path: &Path, frame: &Frame) -> Result<Vec<BevBox>> {
+    if !path.is_file() {
+        return Err(DataError::MissingFile {
+            frame: frame.id.clone(),
+            path: path.to_path_buf(),
+        }
+        .into());
+    }
+    Ok(read_labels(path)?
+        .iter()
+        .filter(|o| o.class != ObjectClass::DontCare)
+        .map(|o| BevBox {
+            class: o.class,
+            b: frame.calib.label_to_box(&o.cam),
+            score: o.score,
+        })
+        .collect())
 }
 
 #[cfg(test)]

@@ -76,63 +76,36 @@ fn label(v: f64) -> String {
     }
 }
 
+/// The plot area: data ranges (x already on the log scale when `log_x`) and pixel size.
+struct Axes {
+    log_x: bool,
+    x: (f64, f64),
+    y: (f64, f64),
+    pw: f32,
+    ph: f32,
+}
+
+impl Axes {
+    fn fx(&self, x: f64) -> f64 {
+        if self.log_x { x.max(1e-12).log10() } else { x }
+    }
+
+    fn px(&self, x: f64) -> f32 {
+        LEFT + ((self.fx(x) - self.x.0) / (self.x.1 - self.x.0)) as f32 * self.pw
+    }
+
+    fn py(&self, y: f64) -> f32 {
+        TOP + self.ph - ((y - self.y.0) / (self.y.1 - self.y.0)) as f32 * self.ph
+    }
+}
+
 impl LinePlot {
     /// Draws the chart.
     pub fn render(&self) -> Canvas {
         let mut c = Canvas::new(W, H, [255, 255, 255]);
-        let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| s.points.iter().copied()).collect();
-        let fx = |x: f64| if self.log_x { x.max(1e-12).log10() } else { x };
-        let (mut x0, mut x1) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-            (a.min(fx(p.0)), b.max(fx(p.0)))
-        });
-        if !x0.is_finite() || x0 == x1 {
-            (x0, x1) = (x0.min(0.0) - 1.0, x1.max(0.0) + 1.0);
-        }
-        let (y0, y1) = self.y_range.unwrap_or_else(|| {
-            let (a, b) = all
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
-            if a.is_finite() && a < b {
-                (a - 0.05 * (b - a), b + 0.05 * (b - a))
-            } else {
-                (0.0, 1.0)
-            }
-        });
-        let (pw, ph) = (W as f32 - LEFT - RIGHT, H as f32 - TOP - BOTTOM);
-        let px = |x: f64| LEFT + ((fx(x) - x0) / (x1 - x0)) as f32 * pw;
-        let py = |y: f64| TOP + ph - ((y - y0) / (y1 - y0)) as f32 * ph;
-        // Grid and ticks.
-        for t in ticks(y0, y1) {
-            let y = py(t);
-            c.line([LEFT, y], [LEFT + pw, y], GRID, 1);
-            let s = label(t);
-            c.text(LEFT as i64 - 8 - 12 * s.len() as i64, y as i64 - 7, &s, INK, 2);
-        }
-        let xt: Vec<f64> = if self.log_x {
-            // Ticks at the data's x values when they are few and spread (center counts), else
-            // at 1, 2, 5 × 10^k (GFLOP, milliseconds).
-            let mut v: Vec<f64> = all.iter().map(|p| p.0).collect();
-            v.sort_by(f64::total_cmp);
-            v.dedup();
-            let spread = v.windows(2).all(|w| w[1] >= 1.5 * w[0]);
-            if v.len() <= 8 && spread {
-                v
-            } else {
-                let (lo, hi) = (10f64.powf(x0), 10f64.powf(x1));
-                (x0.floor() as i32..=x1.ceil() as i32)
-                    .flat_map(|k| [1.0, 2.0, 5.0].map(|m| m * 10f64.powi(k)))
-                    .filter(|t| (lo * 0.999..=hi * 1.001).contains(t))
-                    .collect()
-            }
-        } else {
-            ticks(x0, x1)
-        };
-        for t in xt {
-            let x = px(t);
-            c.line([x, TOP], [x, TOP + ph], GRID, 1);
-            let s = label(t);
-            c.text(x as i64 - 6 * s.len() as i64, (TOP + ph) as i64 + 10, &s, INK, 2);
-        }
+        let axes = self.axes();
+        self.draw_grid(&mut c, &axes);
+        let (pw, ph) = (axes.pw, axes.ph);
         c.polygon(
             &[[LEFT, TOP], [LEFT + pw, TOP], [LEFT + pw, TOP + ph], [LEFT, TOP + ph]],
             INK,
@@ -148,33 +121,99 @@ impl LinePlot {
             2,
         );
         c.text(8, TOP as i64 - 20, &self.y_label, INK, 2);
-        // Curves and legend.
+        self.draw_curves(&mut c, &axes);
+        c
+    }
+
+    /// The data ranges (y padded by 5 %, or the given range) and the plot area.
+    fn axes(&self) -> Axes {
+        let mut axes = Axes {
+            log_x: self.log_x,
+            x: (0.0, 1.0),
+            y: (0.0, 1.0),
+            pw: W as f32 - LEFT - RIGHT,
+            ph: H as f32 - TOP - BOTTOM,
+        };
+        let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| s.points.iter().copied()).collect();
+        let (mut x0, mut x1) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(axes.fx(p.0)), b.max(axes.fx(p.0)))
+        });
+        if !x0.is_finite() || x0 == x1 {
+            (x0, x1) = (x0.min(0.0) - 1.0, x1.max(0.0) + 1.0);
+        }
+        axes.x = (x0, x1);
+        axes.y = self.y_range.unwrap_or_else(|| {
+            let (a, b) = all
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+            if a.is_finite() && a < b {
+                (a - 0.05 * (b - a), b + 0.05 * (b - a))
+            } else {
+                (0.0, 1.0)
+            }
+        });
+        axes
+    }
+
+    /// Grid lines with their tick labels.
+    fn draw_grid(&self, c: &mut Canvas, axes: &Axes) {
+        for t in ticks(axes.y.0, axes.y.1) {
+            let y = axes.py(t);
+            c.line([LEFT, y], [LEFT + axes.pw, y], GRID, 1);
+            let s = label(t);
+            c.text(LEFT as i64 - 8 - 12 * s.len() as i64, y as i64 - 7, &s, INK, 2);
+        }
+        for t in self.x_ticks(axes) {
+            let x = axes.px(t);
+            c.line([x, TOP], [x, TOP + axes.ph], GRID, 1);
+            let s = label(t);
+            c.text(x as i64 - 6 * s.len() as i64, (TOP + axes.ph) as i64 + 10, &s, INK, 2);
+        }
+    }
+
+    /// Ticks of a log x axis at the data's x values when they are few and spread (center
+    /// counts), else at 1, 2, 5 × 10^k (GFLOP, milliseconds); linear ticks otherwise.
+    fn x_ticks(&self, axes: &Axes) -> Vec<f64> {
+        let (x0, x1) = axes.x;
+        if !self.log_x {
+            return ticks(x0, x1);
+        }
+        let mut v: Vec<f64> = self.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        let spread = v.windows(2).all(|w| w[1] >= 1.5 * w[0]);
+        if v.len() <= 8 && spread {
+            return v;
+        }
+        let (lo, hi) = (10f64.powf(x0), 10f64.powf(x1));
+        (x0.floor() as i32..=x1.ceil() as i32)
+            .flat_map(|k| [1.0, 2.0, 5.0].map(|m| m * 10f64.powi(k)))
+            .filter(|t| (lo * 0.999..=hi * 1.001).contains(t))
+            .collect()
+    }
+
+    /// Every series and its legend entry.
+    fn draw_curves(&self, c: &mut Canvas, axes: &Axes) {
+        // Wide enough for the longest name (12 px per character at scale 2).
+        let longest = self.series.iter().map(|s| s.name.chars().count()).max().unwrap_or(0);
+        let lx = (LEFT + axes.pw) as i64 - (44 + 12 * longest as i64).max(220);
         for (k, s) in self.series.iter().enumerate() {
             let colour = PALETTE[k % PALETTE.len()];
-            let pts: Vec<[f32; 2]> = s.points.iter().map(|&(x, y)| [px(x), py(y)]).collect();
+            let pts: Vec<[f32; 2]> = s.points.iter().map(|&(x, y)| [axes.px(x), axes.py(y)]).collect();
             // Dense curves (training logs) are lines only; sparse ones get a marker per point.
             let dense = pts.len() > 60;
             for w in pts.windows(2) {
                 c.line(w[0], w[1], colour, if dense { 1 } else { 3 });
             }
             for p in pts.iter().filter(|_| !dense) {
-                c.fill_rect(
-                    p[0] as i64 - 4,
-                    p[1] as i64 - 4,
-                    p[0] as i64 + 5,
-                    p[1] as i64 + 5,
-                    colour,
-                );
+                let (x, y) = (p[0] as i64, p[1] as i64);
+                c.fill_rect(x - 4, y - 4, x + 5, y + 5, colour);
             }
             // Bottom right: curves of coverage and accuracy climb towards the top right.
-            let ly = (TOP + ph) as i64 - 12 - 24 * (self.series.len() - k) as i64;
-            // Wide enough for the longest name (12 px per character at scale 2).
-            let longest = self.series.iter().map(|s| s.name.chars().count()).max().unwrap_or(0);
-            let lx = (LEFT + pw) as i64 - (44 + 12 * longest as i64).max(220);
+            let ly = (TOP + axes.ph) as i64 - 12 - 24 * (self.series.len() - k) as i64;
             c.fill_rect(lx, ly + 3, lx + 24, ly + 9, colour);
             c.text(lx + 32, ly, &s.name, INK, 2);
         }
-        c
     }
 }
 

@@ -9,6 +9,6 @@ mod run;
 
 pub use report::{Latency, StreamRun, latency, replot_stream, stream_plots, stream_tables, write_stream};
 pub use run::{
-    ModeReport, NmsMode, StreamGroundTruth, StreamModel, StreamReport, StreamedSweep, evaluate_stream, stream_runs,
-    stream_sweep,
+    ModeReport, ModeReports, NmsMode, StreamGroundTruth, StreamModel, StreamReport, StreamedSweep, evaluate_stream,
+    stream_runs, stream_sweep,
 };

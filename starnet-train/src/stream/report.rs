@@ -7,6 +7,7 @@ use super::run::{NmsMode, StreamReport};
 use crate::Result;
 use crate::eval::ANGLE_BINS_DEG;
 use crate::render::{LinePlot, Series};
+use crate::table::Table;
 use serde::{Deserialize, Serialize};
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::ObjectClass;
@@ -32,8 +33,8 @@ impl StreamRun {
         &self.reports[0]
     }
 
-    /// The row name of a mode: the paper's variant names.
-    fn row(&self, mode: NmsMode) -> String {
+    /// The first two cells of a mode's row: the model and the paper's variant name.
+    fn row(&self, mode: NmsMode) -> Vec<String> {
         let lstm = if self.reports.first().is_some_and(|r| r.lstm) {
             " + LSTM"
         } else {
@@ -44,7 +45,7 @@ impl StreamRun {
             NmsMode::Stateful => "+ stateful NMS".to_string(),
             NmsMode::Global => "global NMS".to_string(),
         };
-        format!("{} | {mode}{lstm}", self.label)
+        vec![self.label.clone(), format!("{mode}{lstm}")]
     }
 }
 
@@ -73,29 +74,12 @@ pub fn latency(r: &StreamReport, full_ms: f64, scan_hz: f64) -> Latency {
     }
 }
 
-/// The markdown tables of a streaming evaluation.
+/// The markdown tables of a streaming evaluation: per class AP and recall / precision by
+/// slice count, the first class's AP by subtended angle, and peak compute with latency.
 pub fn stream_tables(runs: &[StreamRun]) -> String {
     let mut s = String::new();
     let Some(first) = runs.first() else {
         return s;
-    };
-    let ns: Vec<usize> = first.reports.iter().map(|r| r.slices).collect();
-    // One row per model and NMS mode, one cell per slice count.
-    let table = |s: &mut String, cell: &dyn Fn(&StreamReport, NmsMode) -> String| {
-        let _ = write!(s, "| model | variant |");
-        for n in &ns {
-            let _ = write!(s, " n = {n} |");
-        }
-        let _ = writeln!(s, "\n|---|---|{}", "---|".repeat(ns.len()));
-        for run in runs {
-            for mode in NmsMode::ALL {
-                let _ = write!(s, "| {} |", run.row(mode));
-                for r in &run.reports {
-                    let _ = write!(s, " {} |", cell(r, mode));
-                }
-                let _ = writeln!(s);
-            }
-        }
     };
     for (k, class) in first.classes.iter().enumerate() {
         let _ = writeln!(
@@ -104,16 +88,16 @@ pub fn stream_tables(runs: &[StreamRun]) -> String {
             first.full().frames,
             first.full().num_centers
         );
-        table(&mut s, &|r, mode| format!("{:.1}", r.ap(mode, k)));
+        s += &slice_table(runs, &|r, mode| format!("{:.1}", r.ap(mode, k))).to_string();
         let _ = writeln!(
             s,
             "\n{class}: LEVEL_1 recall / precision of every box the variant emits, % (duplicates cost precision; suppressing the better of two boxes costs recall)\n"
         );
-        table(&mut s, &|r, mode| {
+        let boxes = slice_table(runs, &|r, mode| {
             let b = r.mode(mode).waymo.get(k).map(|w| w.all_boxes[0]).unwrap_or_default();
             format!("{:.0} / {:.0}", b.recall, b.precision)
         });
-        let _ = writeln!(s);
+        let _ = writeln!(s, "{boxes}");
     }
     if let Some(last) = first.reports.last() {
         let _ = writeln!(
@@ -121,67 +105,96 @@ pub fn stream_tables(runs: &[StreamRun]) -> String {
             "{}: LEVEL_1 AP by subtended angle at n = {} (change from the whole-sweep baseline)\n",
             first.classes[0], last.slices
         );
-        let _ = write!(s, "| model | variant |");
-        for (b, (lo, hi)) in first.full().mode(NmsMode::Global).by_angle.iter().zip(ANGLE_BINS_DEG) {
-            let hi = if hi >= 360.0 { "+".to_string() } else { format!("-{hi}") };
-            let _ = write!(s, " {lo}{hi}° ({}) |", b.num_objects);
-        }
-        let _ = writeln!(s, "\n|---|---|{}", "---|".repeat(ANGLE_BINS_DEG.len()));
-        let base = &first.full().mode(NmsMode::Global).by_angle;
-        let _ = write!(s, "| {} | baseline (n = 1) |", first.label);
-        for b in base {
-            let _ = write!(s, " {:.1} |", b.ap);
-        }
-        let _ = writeln!(s);
-        for run in runs {
-            let Some(r) = run.reports.last() else { continue };
-            for mode in NmsMode::ALL {
-                let _ = write!(s, "| {} |", run.row(mode));
-                for (b, b0) in r.mode(mode).by_angle.iter().zip(base) {
-                    let change = if b0.ap > 0.0 {
-                        format!(" ({:+.0} %)", 100.0 * (b.ap - b0.ap) / b0.ap)
-                    } else {
-                        String::new()
-                    };
-                    let _ = write!(s, " {:.1}{change} |", b.ap);
-                }
-                let _ = writeln!(s);
-            }
-        }
-        let _ = writeln!(s);
+        let _ = writeln!(s, "{}", angle_table(runs));
     }
     let _ = writeln!(
         s,
         "Peak compute and latency (per-slice latency: the median over every slice of every sweep, batch 1; worst case: scan of a slice at {} Hz + its inference, baseline: a full rotation + the whole sweep's inference)\n",
         first.scan_hz
     );
-    let _ = writeln!(
-        s,
-        "| model | n | centers / slice | GFLOP / slice | peak fraction | slice ms | n × slice / sweep | scan ms | worst case ms | baseline ms | speed-up |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    s + &latency_table(runs).to_string()
+}
+
+/// One row per model and NMS mode, one `cell` per slice count.
+fn slice_table(runs: &[StreamRun], cell: &dyn Fn(&StreamReport, NmsMode) -> String) -> Table {
+    let ns = runs[0].reports.iter().map(|r| format!("n = {}", r.slices));
+    let mut t = Table::new(["model".to_string(), "variant".into()].into_iter().chain(ns));
+    for run in runs {
+        for mode in NmsMode::ALL {
+            t.row(
+                run.row(mode)
+                    .into_iter()
+                    .chain(run.reports.iter().map(|r| cell(r, mode))),
+            );
+        }
+    }
+    t
+}
+
+/// The first class's AP by subtended angle at the largest n, against the first model's
+/// whole-sweep baseline.
+fn angle_table(runs: &[StreamRun]) -> Table {
+    let first = &runs[0];
+    let base = &first.full().mode(NmsMode::Global).by_angle;
+    let bins = base.iter().zip(ANGLE_BINS_DEG).map(|(b, (lo, hi))| {
+        let hi = if hi >= 360.0 { "+".to_string() } else { format!("-{hi}") };
+        format!("{lo}{hi}° ({})", b.num_objects)
+    });
+    let mut t = Table::new(["model".to_string(), "variant".into()].into_iter().chain(bins));
+    let baseline = [first.label.clone(), "baseline (n = 1)".into()];
+    t.row(baseline.into_iter().chain(base.iter().map(|b| format!("{:.1}", b.ap))));
+    for run in runs {
+        let Some(r) = run.reports.last() else { continue };
+        for mode in NmsMode::ALL {
+            let cells = r.mode(mode).by_angle.iter().zip(base).map(|(b, b0)| {
+                let change = if b0.ap > 0.0 {
+                    format!(" ({:+.0} %)", 100.0 * (b.ap - b0.ap) / b0.ap)
+                } else {
+                    String::new()
+                };
+                format!("{:.1}{change}", b.ap)
+            });
+            t.row(run.row(mode).into_iter().chain(cells));
+        }
+    }
+    t
+}
+
+/// Per model and slice count: peak compute, measured latency and the worst-case model.
+fn latency_table(runs: &[StreamRun]) -> Table {
+    let mut t = Table::new([
+        "model",
+        "n",
+        "centers / slice",
+        "GFLOP / slice",
+        "peak fraction",
+        "slice ms",
+        "n × slice / sweep",
+        "scan ms",
+        "worst case ms",
+        "baseline ms",
+        "speed-up",
+    ]);
     for run in runs {
         let full_ms = run.full().slice_ms_median;
         for r in &run.reports {
             let l = latency(r, full_ms, run.scan_hz);
-            let _ = writeln!(
-                s,
-                "| {} | {} | {} | {:.3} | {:.3} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1}× |",
-                run.label,
-                r.slices,
-                r.centers_per_slice,
-                r.gflop_per_slice,
-                r.peak_fraction,
-                r.slice_ms_median,
-                r.slices as f64 * r.slice_ms_median / full_ms,
-                l.scan_ms,
-                l.worst_case_ms,
-                l.baseline_ms,
-                l.baseline_ms / l.worst_case_ms
-            );
+            t.row([
+                run.label.clone(),
+                r.slices.to_string(),
+                r.centers_per_slice.to_string(),
+                format!("{:.3}", r.gflop_per_slice),
+                format!("{:.3}", r.peak_fraction),
+                format!("{:.2}", r.slice_ms_median),
+                format!("{:.2}", r.slices as f64 * r.slice_ms_median / full_ms),
+                format!("{:.1}", l.scan_ms),
+                format!("{:.1}", l.worst_case_ms),
+                format!("{:.1}", l.baseline_ms),
+                format!("{:.1}×", l.baseline_ms / l.worst_case_ms),
+            ]);
         }
     }
-    s
+    t
 }
 
 /// AP of the first class against n and against peak compute, and worst-case latency against n.
@@ -193,7 +206,7 @@ pub fn stream_plots(runs: &[StreamRun]) -> [LinePlot; 3] {
         runs.iter()
             .flat_map(|run| {
                 NmsMode::ALL.into_iter().map(move |mode| Series {
-                    name: run.row(mode).replace(" | ", ": ").to_uppercase(),
+                    name: run.row(mode).join(": ").to_uppercase(),
                     points: run.reports.iter().map(|r| (x(r), r.ap(mode, 0))).collect(),
                 })
             })

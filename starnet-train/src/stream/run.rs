@@ -1,15 +1,16 @@
 //! Streaming a sweep through a model slice by slice, and evaluating it over a split.
 
 use crate::Result;
-use crate::config::ExperimentConfig;
+use crate::config::{ExperimentConfig, StreamSection};
+use crate::detector::{Budget, Detector};
 use crate::eval::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_angle, waymo_ap};
-use crate::train::{Budget, EvalReport, mean, quantile, to_kitti, waymo_objects};
+use crate::train::{EvalReport, to_kitti, waymo_objects};
 use serde::{Deserialize, Serialize};
 use starnet_data::Point;
 use starnet_data::kitti::{KittiDataset, LabelSource};
 use starnet_data::sampling::{CenterTarget, centers_per_slice, prepare_slice, slice_points, slice_rng};
 use starnet_data::sim::sub_seed;
-use starnet_model::batch::{decode_detections, make_input};
+use starnet_data::summary::{mean, quantile};
 use starnet_model::flops::forward_gflop;
 use starnet_model::nms::{Detection, StatefulNms, nms};
 use starnet_model::nn::StarNet;
@@ -72,23 +73,14 @@ impl StreamedSweep {
 /// them: each slice is prepared from its own points (and the previous slice's when
 /// `stream.slicing.gather_previous`), run through the model with the LSTM state of the
 /// sweep's earlier slices (fresh at the sweep's start), decoded and passed through stateful
-/// NMS; `budget.num_centers` are spread over the slices. Slice `s` draws from
+/// NMS; the detector's centers are spread over the slices. Slice `s` draws from
 /// [`slice_rng`]`(seed, s)`, so nothing of a later slice reaches it.
-pub fn stream_sweep(
-    model: &StarNet,
-    cfg: &ExperimentConfig,
-    points: &[Point],
-    n: usize,
-    budget: Budget,
-    seed: u64,
-) -> StreamedSweep {
-    let device = starnet_model::backend::default_device();
-    let pipeline = budget.pipeline(&cfg.pipeline);
-    let nms_cfg = cfg.nms_config();
-    let per = centers_per_slice(budget.num_centers, n);
+pub fn stream_sweep(m: &StreamModel, points: &[Point], n: usize, seed: u64) -> StreamedSweep {
+    let (detector, stream) = (&m.detector, &m.stream);
+    let per = centers_per_slice(detector.pipeline.num_centers, n);
     // What the sensor delivers; cutting is the sensor's work, not the detector's, so untimed.
-    let slices = slice_points(points, n, &cfg.stream.slicing);
-    let mut stateful = StatefulNms::new(cfg.stream.nms_memory, cfg.stream.nms_precedence);
+    let slices = slice_points(points, n, &stream.slicing);
+    let mut stateful = StatefulNms::new(stream.nms_memory, stream.nms_precedence);
     let mut state = None;
     let mut out = StreamedSweep {
         localized: Vec::new(),
@@ -100,27 +92,26 @@ pub fn stream_sweep(
     let mut raw_all = Vec::new();
     for s in 0..n {
         let start = Instant::now();
-        let previous = (cfg.stream.slicing.gather_previous && s > 0).then(|| slices[s - 1].as_slice());
+        let previous = (stream.slicing.gather_previous && s > 0).then(|| slices[s - 1].as_slice());
         let prepared = prepare_slice(
             "",
             &slices[s],
             previous,
             (&[], &[]),
-            &pipeline,
+            &detector.pipeline,
             per,
             &mut slice_rng(seed, s),
         );
-        let (output, next) = model.forward_slices(make_input(&[&prepared], &device), 1, state);
-        state = next;
-        let raw = decode_detections(&output, 0, &prepared, &cfg.model.anchors, &nms_cfg);
-        out.stateful.extend(stateful.step(&raw, &nms_cfg));
+        let slice = detector.detect_slice(&prepared, state);
+        state = slice.state;
+        out.stateful.extend(stateful.step(&slice.raw, &detector.nms));
         out.slice_ms.push(start.elapsed().as_secs_f64() * 1e3);
-        let local = nms(&raw, &nms_cfg);
+        let local = nms(&slice.raw, &detector.nms);
         out.localized.extend_from_slice(&local);
         out.per_slice.push(local);
-        raw_all.extend(raw);
+        raw_all.extend(slice.raw);
     }
-    out.global = nms(&raw_all, &nms_cfg);
+    out.global = nms(&raw_all, &detector.nms);
     out
 }
 
@@ -133,8 +124,9 @@ pub struct StreamGroundTruth {
 }
 
 impl StreamGroundTruth {
-    /// Reads the first `max_frames` frames of `dataset` (all when `None`).
-    pub fn read(cfg: &ExperimentConfig, dataset: &KittiDataset, max_frames: Option<usize>) -> Result<Self> {
+    /// Reads the first `max_frames` frames of `dataset` (all when `None`), keeping the objects
+    /// within `eval_range` metres of the sensor.
+    pub fn read(eval_range: f32, dataset: &KittiDataset, max_frames: Option<usize>) -> Result<Self> {
         let ids = &dataset.ids()[..max_frames.map_or(dataset.ids().len(), |m| m.min(dataset.ids().len()))];
         let frames = ids
             .iter()
@@ -142,7 +134,7 @@ impl StreamGroundTruth {
                 let frame = dataset.load(id)?;
                 let objects = waymo_objects(&frame)
                     .into_iter()
-                    .filter(|o| o.b.x.hypot(o.b.y) <= cfg.stream.eval_range)
+                    .filter(|o| o.b.x.hypot(o.b.y) <= eval_range)
                     .collect();
                 Ok((id.clone(), objects))
             })
@@ -192,17 +184,66 @@ pub struct StreamReport {
     /// 95th percentile of that total, ms (absent from reports written before it existed).
     #[serde(default)]
     pub sweep_ms_p95: f64,
-    /// Per NMS mode, in [`NmsMode::ALL`] order.
-    pub modes: Vec<ModeReport>,
+    /// Per NMS mode.
+    pub modes: ModeReports,
+}
+
+/// The results of each NMS mode (in JSON, a list in [`NmsMode::ALL`] order).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(try_from = "Vec<ModeReport>", into = "Vec<ModeReport>")]
+pub struct ModeReports {
+    /// Per-slice NMS.
+    pub localized: ModeReport,
+    /// Stateful NMS.
+    pub stateful: ModeReport,
+    /// Global NMS.
+    pub global: ModeReport,
+}
+
+impl ModeReports {
+    /// The results of `mode`.
+    pub fn get(&self, mode: NmsMode) -> &ModeReport {
+        match mode {
+            NmsMode::Localized => &self.localized,
+            NmsMode::Stateful => &self.stateful,
+            NmsMode::Global => &self.global,
+        }
+    }
+
+    /// Every mode's results, in [`NmsMode::ALL`] order.
+    pub fn iter(&self) -> impl Iterator<Item = &ModeReport> {
+        NmsMode::ALL.into_iter().map(|m| self.get(m))
+    }
+}
+
+impl TryFrom<Vec<ModeReport>> for ModeReports {
+    type Error = String;
+
+    fn try_from(list: Vec<ModeReport>) -> std::result::Result<Self, String> {
+        let take = |mode: NmsMode| {
+            list.iter()
+                .find(|m| m.mode == mode)
+                .cloned()
+                .ok_or_else(|| format!("no `{}` results in `modes`", mode.name()))
+        };
+        Ok(Self {
+            localized: take(NmsMode::Localized)?,
+            stateful: take(NmsMode::Stateful)?,
+            global: take(NmsMode::Global)?,
+        })
+    }
+}
+
+impl From<ModeReports> for Vec<ModeReport> {
+    fn from(m: ModeReports) -> Self {
+        vec![m.localized, m.stateful, m.global]
+    }
 }
 
 impl StreamReport {
     /// The results of `mode`.
     pub fn mode(&self, mode: NmsMode) -> &ModeReport {
-        self.modes
-            .iter()
-            .find(|m| m.mode == mode)
-            .expect("every mode is reported")
+        self.modes.get(mode)
     }
 
     /// LEVEL_1 AP of class `k` in `mode`.
@@ -242,7 +283,7 @@ impl std::fmt::Display for StreamReport {
             self.slice_ms_median,
             self.sweep_ms_mean
         )?;
-        for m in &self.modes {
+        for m in self.modes.iter() {
             write!(f, " {}", m.mode.name())?;
             for w in &m.waymo {
                 write!(f, " {} {:.2}", w.class, w.levels[0].ap)?;
@@ -253,33 +294,33 @@ impl std::fmt::Display for StreamReport {
     }
 }
 
-/// Streams every sweep of `gt` through `model` at `n` slices and scores each NMS mode
-/// (Waymo-style; with camera-view labels only detections inside image 2 count).
+/// Streams every sweep of `gt` through `m` at `n` slices and scores each NMS mode
+/// (Waymo-style; with camera-view labels only detections inside image 2 count). Sweep `i`
+/// samples from `sub_seed(m.seed, 23, i)`.
 pub fn evaluate_stream(
-    model: &StarNet,
-    cfg: &ExperimentConfig,
+    m: &StreamModel,
     dataset: &KittiDataset,
     gt: &StreamGroundTruth,
-    budget: Budget,
     n: usize,
 ) -> Result<StreamReport> {
+    let classes = &m.detector.classes;
     let camera_view = dataset.labels() == LabelSource::Camera;
     let mut frames: [Vec<WaymoFrame>; 3] = Default::default();
     let mut slice_ms = Vec::new();
     let mut sweep_ms = Vec::new();
     for (i, (id, objects)) in gt.frames.iter().enumerate() {
         let frame = dataset.load(id)?;
-        let streamed = stream_sweep(model, cfg, &frame.points, n, budget, sub_seed(cfg.seed, 23, i as u64));
+        let streamed = stream_sweep(m, &frame.points, n, sub_seed(m.seed, 23, i as u64));
         sweep_ms.push(streamed.slice_ms.iter().sum::<f64>());
         slice_ms.extend_from_slice(&streamed.slice_ms);
         for (k, mode) in NmsMode::ALL.iter().enumerate() {
             let detections = streamed
                 .detections(*mode)
                 .iter()
-                .filter(|d| d.b.x.hypot(d.b.y) <= cfg.stream.eval_range)
-                .filter(|d| !camera_view || to_kitti(d, &cfg.data.classes, &frame.calib, frame.image_size).is_some())
+                .filter(|d| d.b.x.hypot(d.b.y) <= m.stream.eval_range)
+                .filter(|d| !camera_view || to_kitti(d, classes, &frame.calib, frame.image_size).is_some())
                 .map(|d| WaymoDetection {
-                    class: cfg.data.classes[d.class],
+                    class: classes[d.class],
                     b: d.b,
                     score: d.score,
                 })
@@ -290,52 +331,66 @@ pub fn evaluate_stream(
             });
         }
     }
-    let model_cfg = cfg.model_config();
+    let budget = m.detector.budget();
     let per = centers_per_slice(budget.num_centers, n);
-    let gflop = forward_gflop(&model_cfg, per, budget.num_points);
-    let full = forward_gflop(&model_cfg, budget.num_centers, budget.num_points);
+    let gflop = forward_gflop(&m.detector.network, per, budget.num_points);
+    let full = forward_gflop(&m.detector.network, budget.num_centers, budget.num_points);
     Ok(StreamReport {
         slices: n,
         frames: gt.frames.len(),
-        lstm: model.has_lstm(),
+        lstm: m.detector.model.has_lstm(),
         num_centers: budget.num_centers,
         centers_per_slice: per,
         num_points: budget.num_points,
         gflop_per_slice: gflop,
         peak_fraction: gflop / full,
-        slice_ms_median: quantile(&slice_ms, 0.5),
+        slice_ms_median: quantile(&slice_ms, 0.5).unwrap_or(0.0),
         slice_ms_mean: mean(&slice_ms),
-        slice_ms_p95: quantile(&slice_ms, 0.95),
+        slice_ms_p95: quantile(&slice_ms, 0.95).unwrap_or(0.0),
         sweep_ms_mean: mean(&sweep_ms),
-        sweep_ms_p95: quantile(&sweep_ms, 0.95),
-        modes: NmsMode::ALL
-            .iter()
-            .zip(&frames)
-            .map(|(&mode, f)| ModeReport {
-                mode,
-                waymo: waymo_ap(f, &cfg.data.classes),
-                by_angle: ap_by_angle(f, cfg.data.classes[0]),
-            })
-            .collect(),
+        sweep_ms_p95: quantile(&sweep_ms, 0.95).unwrap_or(0.0),
+        modes: {
+            let [localized, stateful, global] = frames.map(|f| (waymo_ap(&f, classes), ap_by_angle(&f, classes[0])));
+            let report = |mode, (waymo, by_angle)| ModeReport { mode, waymo, by_angle };
+            ModeReports {
+                localized: report(NmsMode::Localized, localized),
+                stateful: report(NmsMode::Stateful, stateful),
+                global: report(NmsMode::Global, global),
+            }
+        },
     })
 }
 
-/// A model to stream: a name, the model and its run's config.
-pub struct StreamModel<'a> {
+/// A model to stream: a name, its detector at the per-sweep budget, and its run's streaming
+/// settings and seed.
+#[derive(Debug, Clone)]
+pub struct StreamModel {
     /// Its name in tables (e.g. the run folder).
     pub label: String,
-    /// The model.
-    pub model: &'a StarNet,
-    /// Its config (slicing, NMS, anchors, classes).
-    pub config: &'a ExperimentConfig,
-    /// Its budget per sweep.
-    pub budget: Budget,
+    /// The model with its anchors, classes, NMS and per-sweep budget.
+    pub detector: Detector,
+    /// Slicing, stateful NMS, evaluation range and scan rate.
+    pub stream: StreamSection,
+    /// The experiment seed.
+    pub seed: u64,
+}
+
+impl StreamModel {
+    /// `model`, trained with `cfg`, at `budget` per sweep.
+    pub fn new(label: String, model: StarNet, cfg: &ExperimentConfig, budget: Budget) -> Self {
+        Self {
+            label,
+            detector: Detector::new(model, cfg).at_budget(budget),
+            stream: cfg.stream.clone(),
+            seed: cfg.seed,
+        }
+    }
 }
 
 /// Streams every model over `gt`'s sweeps at each of `slices` (n = 1, the whole-sweep
 /// reference, is added first when absent), calling `on_report` after each.
 pub fn stream_runs(
-    models: &[StreamModel<'_>],
+    models: &[StreamModel],
     dataset: &KittiDataset,
     gt: &StreamGroundTruth,
     slices: &[usize],
@@ -351,15 +406,15 @@ pub fn stream_runs(
             let reports = ns
                 .iter()
                 .map(|&n| {
-                    let r = evaluate_stream(m.model, m.config, dataset, gt, m.budget, n)?;
+                    let r = evaluate_stream(m, dataset, gt, n)?;
                     on_report(&m.label, &r);
                     Ok(r)
                 })
                 .collect::<Result<Vec<_>>>()?;
             Ok(super::StreamRun {
                 label: m.label.clone(),
-                classes: m.config.data.classes.clone(),
-                scan_hz: m.config.stream.scan_hz,
+                classes: m.detector.classes.clone(),
+                scan_hz: m.stream.scan_hz,
                 reports,
             })
         })
@@ -395,6 +450,29 @@ mod tests {
     }
 
     #[test]
+    fn mode_reports_are_a_list_in_json_and_need_every_mode() {
+        let report = |mode| ModeReport {
+            mode,
+            waymo: Vec::new(),
+            by_angle: Vec::new(),
+        };
+        let modes = ModeReports {
+            localized: report(NmsMode::Localized),
+            stateful: report(NmsMode::Stateful),
+            global: report(NmsMode::Global),
+        };
+        let json = serde_json::to_value(&modes).unwrap();
+        let names: Vec<_> = json.as_array().unwrap().iter().map(|m| m["mode"].clone()).collect();
+        assert_eq!(names, ["localized", "stateful", "global"]);
+        let back: ModeReports = serde_json::from_value(json.clone()).unwrap();
+        assert!(NmsMode::ALL.iter().all(|&m| back.get(m).mode == m));
+        let mut missing = json;
+        missing.as_array_mut().unwrap().remove(1);
+        let err = serde_json::from_value::<ModeReports>(missing).unwrap_err().to_string();
+        assert!(err.contains("stateful"), "{err}");
+    }
+
+    #[test]
     fn no_slice_reads_a_later_slice() {
         let cfg = config();
         let model = cfg.model_config().init(&starnet_model::backend::default_device());
@@ -409,8 +487,9 @@ mod tests {
                 gather_previous,
                 ..SliceConfig::default()
             };
+            let m = StreamModel::new("m".into(), model.clone(), &cfg, budget);
             let points = sweep(3000);
-            let base = stream_sweep(&model, &cfg, &points, 6, budget, 5);
+            let base = stream_sweep(&m, &points, 6, 5);
             assert!(base.per_slice.iter().all(|d| !d.is_empty()));
             // Change every point of slices 3–5 (and drop some): slices 0–2 must not notice,
             // LSTM state included.
@@ -427,14 +506,11 @@ mod tests {
                     }
                 })
                 .collect();
-            let other = stream_sweep(&model, &cfg, &changed, 6, budget, 5);
+            let other = stream_sweep(&m, &changed, 6, 5);
             assert_eq!(&other.per_slice[..3], &base.per_slice[..3]);
             assert_ne!(&other.per_slice[3..], &base.per_slice[3..]);
             // A sweep starts from a fresh state: streaming it again gives the same boxes.
-            assert_eq!(
-                stream_sweep(&model, &cfg, &points, 6, budget, 5).per_slice,
-                base.per_slice
-            );
+            assert_eq!(stream_sweep(&m, &points, 6, 5).per_slice, base.per_slice);
         }
     }
 }

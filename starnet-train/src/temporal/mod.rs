@@ -9,8 +9,8 @@ mod seeds;
 mod sequence;
 
 pub use run::{
-    SEED_MIN_SCORE, TemporalReport, evaluate_sequences, replot_temporal, seeded_centers, temporal_plot, temporal_table,
-    write_temporal,
+    SEED_MIN_SCORE, TemporalReport, evaluate_sequences, replot_temporal, seeded_centers, temporal_plot, temporal_sweep,
+    temporal_table, write_temporal,
 };
 pub use seeds::{PrevCenters, SeedStats, seed_distances, snap_seeds, temporal_seeds};
 pub use sequence::{Sequence, open_sequences};

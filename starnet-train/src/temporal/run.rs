@@ -3,21 +3,17 @@
 use super::seeds::{PrevCenters, SeedStats, seed_distances, snap_seeds, temporal_seeds};
 use super::sequence::Sequence;
 use crate::Result;
-use crate::config::ExperimentConfig;
+use crate::detector::{Budget, Detector};
 use crate::render::{LinePlot, Series};
-use crate::train::{Budget, EvalReport, Scorer, frame_seed};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use crate::table::Table;
+use crate::train::{EvalReport, Scorer, frame_seed};
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::Pose;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::Frame;
-use starnet_data::sampling::{Centers, PipelineConfig, PreparedFrame, center_pool, prepare_frame};
-use starnet_model::batch::{decode_detections, make_input};
+use starnet_data::sampling::{Centers, PreparedFrame, center_pool};
 use starnet_model::nms::{Detection, NmsConfig, nms};
-use starnet_model::nn::StarNet;
-use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
@@ -52,18 +48,20 @@ pub struct TemporalReport {
 /// (`Pose::between` the two poses) and snapped to the nearest candidate center within the
 /// gathering radius ([`snap_seeds`]), and FPS continues from them up to `budget.num_centers`;
 /// the first frame of a sequence has no seeds. Frame `i`
-/// (counting through the sequences) samples from `frame_seed(cfg, i)`, as [`crate::train::evaluate`]
-/// does, so K = 0 reproduces it.
+/// (counting through the sequences) samples from `frame_seed(seed, i)`, as
+/// [`crate::train::evaluate`] does, so K = 0 reproduces it. `detector` is at the budget N.
 pub fn evaluate_sequences(
-    model: &StarNet,
-    cfg: &ExperimentConfig,
+    detector: &Detector,
+    seed: u64,
     sequences: &[Sequence],
-    budget: Budget,
     prev: PrevCenters,
 ) -> Result<TemporalReport> {
-    let step = SeededStep::new(cfg, budget, prev);
-    // Sequences are opened with the config's labels.
-    let mut scorer = Scorer::new(cfg, cfg.data.labels, None);
+    let step = SeededStep::new(detector, prev);
+    let budget = detector.budget();
+    let labels = sequences
+        .first()
+        .map_or(starnet_data::kitti::LabelSource::Camera, |s| s.dataset.labels());
+    let mut scorer = Scorer::new(&detector.classes, labels, None);
     let (mut corrected, mut uncorrected, mut confident) = (Vec::new(), Vec::new(), Vec::new());
     let mut i = 0;
     for seq in sequences {
@@ -75,14 +73,14 @@ pub fn evaluate_sequences(
                 0 => Vec::new(),
                 _ => temporal_seeds(&previous, step.k, &Pose::between(&seq.poses[t - 1], &seq.poses[t])),
             };
-            let (prepared, detections, candidates) = step.run(model, &frame, &moved, frame_seed(cfg, i));
+            let (prepared, detections, candidates) = step.run(&frame, &moved, frame_seed(seed, i));
             let ms = start.elapsed().as_secs_f64() * 1e3;
             if !moved.is_empty() {
                 let objects: Vec<Box3d> = prepared
                     .boxes
                     .iter()
                     .zip(&prepared.classes)
-                    .filter(|(_, c)| cfg.data.classes.contains(c))
+                    .filter(|(_, c)| detector.classes.contains(c))
                     .map(|(b, _)| *b)
                     .collect();
                 corrected.extend(seed_distances(&moved, &objects));
@@ -93,7 +91,7 @@ pub fn evaluate_sequences(
                     previous
                         .iter()
                         .take(moved.len())
-                        .map(|d| d.score >= step.nms.per_class[d.class].score),
+                        .map(|d| d.score >= detector.nms.per_class[d.class].score),
                 );
             }
             previous = candidates;
@@ -105,90 +103,98 @@ pub fn evaluate_sequences(
         num_centers: budget.num_centers,
         prev,
         prev_centers: step.k,
-        report: scorer.finish(budget),
+        report: scorer.finish(detector),
         seeds: SeedStats::of(&corrected, &uncorrected, &confident),
     })
 }
 
-/// The centers frame `t` of `seq` gets at `budget` with `prev` from frame t − 1: frame t − 1 is
-/// detected with plain FPS (as the first frame of a run would be), its seeds moved and snapped
-/// into frame t, and frame t's centers sampled from them (`Centers::num_seeded` lead).
-pub fn seeded_centers(
-    model: &StarNet,
-    cfg: &ExperimentConfig,
-    seq: &Sequence,
-    t: usize,
-    budget: Budget,
-    prev: PrevCenters,
-) -> Result<Centers> {
-    let step = SeededStep::new(cfg, budget, prev);
+/// [`evaluate_sequences`] at every centers N (outermost) and K of `prev`, calling `on_report`
+/// after each run; a K asked for twice at one N (`32` and `50%` of 64) is evaluated once and
+/// reported under each name.
+pub fn temporal_sweep(
+    detector: &Detector,
+    seed: u64,
+    sequences: &[Sequence],
+    centers: &[usize],
+    prev: &[PrevCenters],
+    on_report: &mut dyn FnMut(&TemporalReport),
+) -> Result<Vec<TemporalReport>> {
+    let mut reports: Vec<TemporalReport> = Vec::new();
+    for &n in centers {
+        let at_n = detector.at_budget(Budget {
+            num_centers: n,
+            ..detector.budget()
+        });
+        let first = reports.len();
+        for &p in prev {
+            let same = reports[first..].iter().find(|r| r.prev_centers == p.of(n)).cloned();
+            let r = match same {
+                Some(r) => TemporalReport { prev: p, ..r },
+                None => {
+                    let r = evaluate_sequences(&at_n, seed, sequences, p)?;
+                    on_report(&r);
+                    r
+                }
+            };
+            reports.push(r);
+        }
+    }
+    Ok(reports)
+}
+
+/// The centers frame `t` of `seq` gets at `detector`'s budget with `prev` from frame t − 1:
+/// frame t − 1 is detected with plain FPS (as the first frame of a run would be), its seeds
+/// moved and snapped into frame t, and frame t's centers sampled from them
+/// (`Centers::num_seeded` lead). Frame `t` samples from `frame_seed(seed, t)`.
+pub fn seeded_centers(detector: &Detector, seed: u64, seq: &Sequence, t: usize, prev: PrevCenters) -> Result<Centers> {
+    let step = SeededStep::new(detector, prev);
     let ids = seq.dataset.ids();
     let moved = if t == 0 {
         Vec::new()
     } else {
         let before = seq.dataset.load(&ids[t - 1])?;
-        let (_, _, candidates) = step.run(model, &before, &[], frame_seed(cfg, t - 1));
+        let (_, _, candidates) = step.run(&before, &[], frame_seed(seed, t - 1));
         temporal_seeds(&candidates, step.k, &Pose::between(&seq.poses[t - 1], &seq.poses[t]))
     };
     let frame = seq.dataset.load(&ids[t])?;
-    Ok(step.run(model, &frame, &moved, frame_seed(cfg, t)).0.centers)
+    Ok(step.run(&frame, &moved, frame_seed(seed, t)).0.centers)
 }
 
 /// One frame of a seeded run: settings resolved once.
 struct SeededStep<'a> {
-    cfg: &'a ExperimentConfig,
-    pipeline: PipelineConfig,
-    nms: NmsConfig,
+    detector: &'a Detector,
     /// The final NMS at the seeds' score bar, keeping K boxes.
     seed_nms: NmsConfig,
     k: usize,
 }
 
 impl<'a> SeededStep<'a> {
-    fn new(cfg: &'a ExperimentConfig, budget: Budget, prev: PrevCenters) -> Self {
-        let nms = cfg.nms_config();
-        let k = prev.of(budget.num_centers);
-        let mut seed_nms = nms.clone();
+    fn new(detector: &'a Detector, prev: PrevCenters) -> Self {
+        let k = prev.of(detector.pipeline.num_centers);
+        let mut seed_nms = detector.nms.clone();
         for c in &mut seed_nms.per_class {
             c.score = c.score.min(SEED_MIN_SCORE);
         }
         seed_nms.max_boxes = k.max(1);
-        Self {
-            cfg,
-            pipeline: budget.pipeline(&cfg.pipeline),
-            nms,
-            seed_nms,
-            k,
-        }
+        Self { detector, seed_nms, k }
     }
 
     /// Snaps the `moved` seeds onto the frame, samples centers from them and detects: the
     /// prepared frame, its detections and the next frame's seed candidates.
-    fn run(
-        &self,
-        model: &StarNet,
-        frame: &Frame,
-        moved: &[[f32; 3]],
-        seed: u64,
-    ) -> (PreparedFrame, Vec<Detection>, Vec<Detection>) {
+    fn run(&self, frame: &Frame, moved: &[[f32; 3]], seed: u64) -> (PreparedFrame, Vec<Detection>, Vec<Detection>) {
+        let pipeline = &self.detector.pipeline;
         let seeds = if moved.is_empty() {
             Vec::new()
         } else {
-            let pool = center_pool(
-                &frame.points,
-                &self.pipeline.pool,
-                Some((&frame.calib, frame.image_size)),
-            );
-            snap_seeds(moved, &frame.points, &pool, self.pipeline.gather.radius)
+            let pool = center_pool(&frame.points, &pipeline.pool, Some((&frame.calib, frame.image_size)));
+            snap_seeds(moved, &frame.points, &pool, pipeline.gather.radius)
         };
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let prepared = prepare_frame(frame, &self.pipeline, None, &seeds, &mut rng);
-        let device = starnet_model::backend::default_device();
-        let out = model.forward(make_input(&[&prepared], &device));
+        let prepared = self.detector.prepare(frame, &seeds, seed);
+        let out = self.detector.forward(&[&prepared]);
         // One decoding at the seeds' lower score bar serves both: `nms` applies each config's
-        // own threshold, so the detections are exactly `decode_frame`'s.
-        let raw = decode_detections(&out, 0, &prepared, &self.cfg.model.anchors, &self.seed_nms);
-        let detections = nms(&raw, &self.nms);
+        // own threshold, so the detections are exactly `Detector::detect`'s.
+        let raw = self.detector.raw_detections(&out, 0, &prepared, &self.seed_nms);
+        let detections = nms(&raw, &self.detector.nms);
         let candidates = if self.k > 0 {
             seed_candidates(raw, &self.seed_nms)
         } else {
@@ -201,12 +207,19 @@ impl<'a> SeededStep<'a> {
 /// The markdown table: per (N, K) the headline AP, its change from K = 0 at the same N, and
 /// where the seeds landed.
 pub fn temporal_table(reports: &[TemporalReport]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "| centers N | from t − 1 K | FPS | headline AP | BEV AP | Δ vs K = 0 | seeds | within 1 m of an object | confident seeds | their median distance m | without pose correction m |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut t = Table::new([
+        "centers N",
+        "from t − 1 K",
+        "FPS",
+        "headline AP",
+        "BEV AP",
+        "Δ vs K = 0",
+        "seeds",
+        "within 1 m of an object",
+        "confident seeds",
+        "their median distance m",
+        "without pose correction m",
+    ]);
     for (i, r) in reports.iter().enumerate() {
         // A run asked for twice (`32` and `50%` of 64) is listed once.
         if reports[..i]
@@ -219,31 +232,30 @@ pub fn temporal_table(reports: &[TemporalReport]) -> String {
             .iter()
             .find(|b| b.num_centers == r.num_centers && b.prev_centers == 0)
             .map(|b| b.report.headline());
-        let delta = base.map_or("".to_string(), |b| format!("{:+.1}", r.report.headline() - b));
+        let delta = base.map_or(String::new(), |b| format!("{:+.1}", r.report.headline() - b));
         let bev = r.report.classes.first().map_or(0.0, |c| c.bev[1].r40);
-        let seeds = if r.seeds.seeds > 0 {
-            format!(
-                "{} | {:.0} % | {} | {:.2} | {:.2}",
-                r.seeds.seeds,
-                100.0 * r.seeds.within_1m,
-                r.seeds.confident,
-                r.seeds.median_m,
-                r.seeds.uncorrected_median_m
-            )
+        let mut cells = vec![
+            r.num_centers.to_string(),
+            r.prev_centers.to_string(),
+            (r.num_centers - r.prev_centers).to_string(),
+            format!("{:.1}", r.report.headline()),
+            format!("{bev:.1}"),
+            delta,
+            r.seeds.seeds.to_string(),
+        ];
+        if r.seeds.seeds > 0 {
+            cells.extend([
+                format!("{:.0} %", 100.0 * r.seeds.within_1m),
+                r.seeds.confident.to_string(),
+                format!("{:.2}", r.seeds.median_m),
+                format!("{:.2}", r.seeds.uncorrected_median_m),
+            ]);
         } else {
-            "0 | | | |".to_string()
-        };
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {:.1} | {:.1} | {delta} | {seeds} |",
-            r.num_centers,
-            r.prev_centers,
-            r.num_centers - r.prev_centers,
-            r.report.headline(),
-            bev
-        );
+            cells.extend(vec![String::new(); 4]);
+        }
+        t.row(cells);
     }
-    s
+    t.to_string()
 }
 
 /// Headline AP against total centers, one curve per way of choosing K.
@@ -300,9 +312,14 @@ pub fn replot_temporal(dir: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::ExperimentConfig;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
     use starnet_data::kitti::{Calib, ImageSize};
+    use starnet_data::sampling::prepare_frame;
     use starnet_data::sim::{SynthConfig, simulate_scene_frame};
     use starnet_model::batch::decode_frame;
+    use starnet_model::batch::make_input;
 
     fn frame() -> Frame {
         let calib = Calib::kitti_000000();
@@ -316,7 +333,7 @@ mod tests {
         }
     }
 
-    fn setup() -> (ExperimentConfig, StarNet, Budget) {
+    fn setup() -> (ExperimentConfig, Detector, Budget) {
         let mut cfg = ExperimentConfig::default();
         cfg.model.blocks = vec![[16, 8]];
         cfg.model.d_fc0 = 8;
@@ -329,36 +346,39 @@ mod tests {
             num_points: 16,
             target: starnet_data::sampling::CenterTarget::All,
         };
-        (cfg, model, budget)
+        let detector = Detector::new(model, &cfg).at_budget(budget);
+        (cfg, detector, budget)
     }
 
     #[test]
     fn without_seeds_a_step_is_plain_fps_evaluation() {
-        let (cfg, model, budget) = setup();
+        let (cfg, detector, budget) = setup();
         let f = frame();
-        let (prepared, dets, candidates) = SeededStep::new(&cfg, budget, PrevCenters::Count(0)).run(&model, &f, &[], 9);
+        let (prepared, dets, candidates) = SeededStep::new(&detector, PrevCenters::Count(0)).run(&f, &[], 9);
         // What `evaluate` does with frame seed 9.
         let pipeline = budget.pipeline(&cfg.pipeline);
         let plain = prepare_frame(&f, &pipeline, None, &[], &mut ChaCha8Rng::seed_from_u64(9));
-        let out = model.forward(make_input(&[&plain], &starnet_model::backend::default_device()));
+        let out = detector
+            .model
+            .forward(make_input(&[&plain], &starnet_model::backend::default_device()));
         let expected = decode_frame(&out, 0, &plain, &cfg.model.anchors, &cfg.nms_config());
         assert_eq!(prepared.centers, plain.centers);
         assert!(!expected.is_empty());
         assert_eq!(dets, expected);
         assert!(candidates.is_empty());
         // 0 % is K = 0 too.
-        let pct = SeededStep::new(&cfg, budget, PrevCenters::Percent(0)).run(&model, &f, &[], 9);
+        let pct = SeededStep::new(&detector, PrevCenters::Percent(0)).run(&f, &[], 9);
         assert_eq!(pct.1, expected);
     }
 
     #[test]
     fn seeds_lead_the_centers_snapped_onto_candidate_points() {
-        let (cfg, model, budget) = setup();
+        let (cfg, detector, _) = setup();
         let f = frame();
-        let step = SeededStep::new(&cfg, budget, PrevCenters::Count(3));
+        let step = SeededStep::new(&detector, PrevCenters::Count(3));
         // Three positions in front of the sensor, and one far from any point (kept as is).
         let moved = [[12.0, 1.0, -1.0], [20.0, -4.0, -1.0], [35.0, 6.0, -1.0]];
-        let (prepared, _, candidates) = step.run(&model, &f, &moved, 4);
+        let (prepared, _, candidates) = step.run(&f, &moved, 4);
         let c = &prepared.centers;
         assert_eq!((c.len(), c.num_seeded), (24, 3));
         let pool = center_pool(&f.points, &cfg.pipeline.pool, Some((&f.calib, f.image_size)));

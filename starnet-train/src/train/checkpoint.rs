@@ -7,6 +7,7 @@ use super::ema::WeightEma;
 use crate::{Result, TrainError};
 use burn::module::Module;
 use burn::optim::{AdamConfig, ModuleOptimizer};
+use burn::store::ModuleRecord;
 use serde::{Deserialize, Serialize};
 use starnet_model::nn::StarNet;
 use std::path::{Path, PathBuf};
@@ -75,9 +76,29 @@ pub fn load_model(path: &Path, model: StarNet) -> Result<StarNet> {
             "no such checkpoint (expected a checkpoint folder or a model.bpk file)",
         ));
     }
-    model
-        .try_load_file(&file)
-        .map_err(|e| ckpt_error(&file, format!("cannot load the model: {e}")))
+    let bytes = std::fs::read(&file).map_err(|e| ckpt_error(&file, e))?;
+    model_from_bytes(bytes, model, &file)
+}
+
+/// Loads the burnpack `bytes` of `file` into `model`. A malformed pack, or one of another
+/// model (a missing, extra or differently shaped tensor), is an error naming `file`.
+pub fn model_from_bytes(bytes: Vec<u8>, model: StarNet, file: &Path) -> Result<StarNet> {
+    // The burnpack reader is not hardened against every malformed input: a panic inside it is
+    // this file's error, not the program's.
+    let loaded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let record = ModuleRecord::from_bytes(burn::tensor::Bytes::from_bytes_vec(bytes))?;
+        model.try_load_record(record)
+    }));
+    match loaded {
+        Ok(Ok(model)) => Ok(model),
+        Ok(Err(e)) => Err(ckpt_error(file, format!("cannot load the model: {e}"))),
+        Err(_) => Err(ckpt_error(file, "cannot load the model: a malformed burnpack file")),
+    }
+}
+
+/// Parses a checkpoint's `state.json` (the text of `file`).
+pub fn parse_state(text: &str, file: &Path) -> Result<TrainState> {
+    serde_json::from_str(text).map_err(|e| ckpt_error(file, e))
 }
 
 /// What a checkpoint restores.
@@ -114,8 +135,9 @@ pub fn load_checkpoint(dir: &Path, init: impl Fn() -> StarNet, adam: &AdamConfig
         .init()
         .load(dir.join("optim.bpk"))
         .map_err(|e| ckpt_error(&dir.join("optim.bpk"), e))?;
-    let text = std::fs::read_to_string(dir.join("state.json")).map_err(|e| ckpt_error(&dir.join("state.json"), e))?;
-    let state = serde_json::from_str(&text).map_err(|e| ckpt_error(&dir.join("state.json"), e))?;
+    let state_file = dir.join("state.json");
+    let text = std::fs::read_to_string(&state_file).map_err(|e| ckpt_error(&state_file, e))?;
+    let state = parse_state(&text, &state_file)?;
     Ok(Restored {
         model,
         optim,
@@ -153,5 +175,40 @@ pub fn prune(dir: &Path, keep: usize) {
     let steps = step_checkpoints(dir);
     for (_, p) in steps.iter().take(steps.len().saturating_sub(keep)) {
         let _ = std::fs::remove_dir_all(p);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::ExperimentConfig;
+
+    fn model(width: usize) -> StarNet {
+        let mut cfg = ExperimentConfig::default();
+        cfg.model.blocks = vec![[width, 8]];
+        cfg.model.d_fc0 = 8;
+        cfg.model.d_offset = 4;
+        cfg.model_config().init(&starnet_model::backend::default_device())
+    }
+
+    #[test]
+    fn a_truncated_or_foreign_model_file_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("model.bpk");
+        model(8).save_file(&file).unwrap();
+        // Another width: the error names the file and the tensor whose shape differs.
+        let msg = load_model(&file, model(16)).unwrap_err().to_string();
+        assert!(msg.contains("model.bpk"), "{msg}");
+        assert!(msg.contains("featurizer"), "no tensor named: {msg}");
+        // Truncated: still the file's error, not a panic.
+        let bytes = std::fs::read(&file).unwrap();
+        std::fs::write(&file, &bytes[..bytes.len() / 2]).unwrap();
+        let msg = load_model(&file, model(8)).unwrap_err().to_string();
+        assert!(msg.contains("model.bpk"), "{msg}");
+        // A state.json that is not one.
+        let msg = parse_state("{\"step\": -3}", Path::new("ckpt/state.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("ckpt/state.json"), "{msg}");
     }
 }

@@ -1,17 +1,53 @@
-//! Training and evaluating a detector from an experiment config.
+//! Training and evaluating a detector from an experiment config, as pieces a custom loop can
+//! assemble: [`RunFolder`] (config, checkpoints), [`train_loader`] (prepared batches in
+//! threads), [`Trainer`] (one optimisation step), [`TrainLog`], [`Schedule`] and [`validate`];
+//! [`train`] is the loop `starnet train` runs.
+//!
+//! A custom loop (a few steps on the simulator data; `no_run`: it needs `data/sim`):
+//!
+//! ```no_run
+//! use starnet_train::config::load_config;
+//! use starnet_train::train::{RunFolder, Schedule, Trainer, ensure_data, paste_database, train_loader, validate};
+//! use std::path::Path;
+//!
+//! let cfg = load_config(Path::new("configs/quickstart.toml"), &["train.epochs=1".into()])?;
+//! ensure_data(&cfg)?;
+//! let run = RunFolder::create(Path::new("runs/custom"), &cfg, false)?;
+//! let train_set = cfg.dataset(&cfg.data.train_split)?;
+//! let schedule = Schedule::new(&cfg.train, train_set.ids().len(), Some(20));
+//! let device = starnet_model::backend::default_device().autodiff();
+//! let mut trainer = Trainer::start(&cfg, None, &device)?;
+//! let mut items = train_loader(&cfg, &train_set, paste_database(&cfg)?, schedule, 0);
+//! while trainer.state.step < schedule.end {
+//!     let sweeps = (&mut items).take(cfg.train.batch_size).collect::<Result<Vec<_>, _>>()?;
+//!     let losses = trainer.step(&sweeps, schedule.lr(cfg.train.learning_rate, trainer.state.step))?;
+//!     println!("step {} loss {:.4}", trainer.state.step, losses.loss);
+//! }
+//! run.save_step(&trainer, 1)?;
+//! let report = validate(&trainer.eval_model(), &cfg, &cfg.dataset(&cfg.data.val_split)?, None)?;
+//! println!("{report}");
+//! # Ok::<(), starnet_train::TrainError>(())
+//! ```
 
 mod checkpoint;
 mod clip;
+mod data;
 mod ema;
 mod evaluate;
+mod log;
 mod schedule;
+mod step;
 mod trainer;
 
-pub use checkpoint::{Restored, TrainState, latest_checkpoint, load_checkpoint, load_model, save_checkpoint};
-pub use clip::clip_global_norm;
-pub use ema::WeightEma;
-pub use evaluate::{
-    Budget, EvalReport, RANGE_BINS_MAX_M, Scorer, evaluate, frame_seed, mean, quantile, to_kitti, waymo_objects,
+pub use checkpoint::{
+    Restored, TrainState, latest_checkpoint, load_checkpoint, load_model, model_from_bytes, parse_state,
+    save_checkpoint,
 };
-pub use schedule::lr_multiplier;
-pub use trainer::{TrainOptions, TrainSummary, ensure_data, run_dir_for, slices_at, train, validate};
+pub use clip::clip_global_norm;
+pub use data::{TrainItem, ensure_data, paste_database, slices_at, train_item, train_loader};
+pub use ema::WeightEma;
+pub use evaluate::{EvalOptions, EvalReport, RANGE_BINS_MAX_M, Scorer, evaluate, frame_seed, to_kitti, waymo_objects};
+pub use log::{StepRecord, TrainLog, progress_line};
+pub use schedule::{Schedule, lr_multiplier};
+pub use step::{StepLosses, Trainer};
+pub use trainer::{RunFolder, TrainOptions, TrainSummary, end_epoch, run_dir_for, train, validate};

@@ -1,0 +1,58 @@
+//! `starnet`: train, evaluate, export and inspect StarNet detectors. Parses arguments and
+//! calls the `starnet_train` library; nothing else happens here. Each subcommand is an
+//! argument struct with a `run()`.
+
+mod frames;
+mod models;
+mod outputs;
+
+use clap::{Parser, Subcommand};
+
+// Training allocates and frees the same large buffers every step; glibc hands each back to the
+// kernel and faults it in again, mimalloc keeps them (BENCHMARKS.md, issue #16).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
+#[derive(Parser)]
+#[command(
+    name = "starnet",
+    version,
+    about = "StarNet point-cloud 3D object detection: data, training, evaluation, export"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Inspect(frames::Inspect),
+    Render(frames::Render),
+    Coverage(frames::Coverage),
+    Prepare(frames::Prepare),
+    Train(models::Train),
+    Eval(models::Eval),
+    StreamEval(models::StreamEval),
+    Export(models::Export),
+    Detect(models::Detect),
+    Plot(outputs::Plot),
+    Config(outputs::Config),
+    Synth(frames::Synth),
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().command {
+        Command::Inspect(c) => c.run(),
+        Command::Render(c) => c.run(),
+        Command::Coverage(c) => c.run(),
+        Command::Prepare(c) => c.run(),
+        Command::Train(c) => c.run(),
+        Command::Eval(c) => c.run(),
+        Command::StreamEval(c) => c.run(),
+        Command::Export(c) => c.run(),
+        Command::Detect(c) => c.run(),
+        Command::Plot(c) => c.run(),
+        Command::Config(c) => c.run(),
+        Command::Synth(c) => c.run(),
+    }
+}

@@ -1,0 +1,282 @@
+//! [`Detector`]: a trained StarNet with everything inference needs — the anchor grid its outputs
+//! are laid out on, its classes, the center sampling and gathering at a [`Budget`], and the final
+//! NMS — so detecting is one call and needs no TOML file. Every command that runs a model
+//! (`eval`, `detect`, sequence and streaming evaluation) goes through it.
+//!
+//! A custom inference loop over a KITTI split (`no_run`: it needs a trained run):
+//!
+//! ```no_run
+//! use starnet_data::kitti::KittiDataset;
+//! use starnet_train::detector::Detector;
+//! use std::path::Path;
+//!
+//! let detector = Detector::load(Path::new("runs/quickstart/checkpoints/best"))?;
+//! let val = KittiDataset::open(Path::new("data/sim"), Some("val"))?;
+//! for (i, id) in val.ids().iter().enumerate() {
+//!     let frame = val.load(id)?;
+//!     for d in detector.detect(&frame, i as u64) {
+//!         println!("{id} {} {:.2} {:?}", detector.classes[d.class], d.score, d.b.to_array());
+//!     }
+//! }
+//! # Ok::<(), starnet_train::TrainError>(())
+//! ```
+
+use crate::Result;
+use crate::config::ExperimentConfig;
+use crate::trained::TrainedModel;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use starnet_data::kitti::{Frame, ObjectClass};
+use starnet_data::sampling::{AnchorGrid, CenterTarget, GatherConfig, PipelineConfig, PreparedFrame, prepare_frame};
+use starnet_model::batch::{decode_detections, make_input};
+use starnet_model::flops::forward_gflop;
+use starnet_model::nms::{Detection, NmsConfig, nms};
+use starnet_model::nn::{ModelOutput, SliceState, StarNet, StarNetConfig};
+use std::path::Path;
+
+/// How much compute a frame gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Budget {
+    /// Centers sampled per frame.
+    pub num_centers: usize,
+    /// Points per center.
+    pub num_points: usize,
+    /// Which sampled centers the model sees.
+    pub target: CenterTarget,
+}
+
+impl Budget {
+    /// The config's evaluation budget.
+    pub fn of(cfg: &ExperimentConfig) -> Self {
+        Self {
+            num_centers: cfg.eval.num_centers,
+            num_points: cfg.eval.num_points,
+            target: CenterTarget::All,
+        }
+    }
+
+    /// Centers the model sees.
+    pub fn model_centers(&self) -> usize {
+        self.target.count(self.num_centers)
+    }
+
+    /// `base` (the pool, sampler, center z, radius and metric) at this budget.
+    pub fn pipeline(&self, base: &PipelineConfig) -> PipelineConfig {
+        PipelineConfig {
+            num_centers: self.num_centers,
+            target: self.target,
+            gather: GatherConfig {
+                num_points: self.num_points,
+                ..base.gather
+            },
+            ..base.clone()
+        }
+    }
+}
+
+/// A streamed slice's boxes before NMS and the LSTM state the next slice starts from.
+pub struct SliceDetections {
+    /// Every box above its class's score threshold, in anchor order.
+    pub raw: Vec<Detection>,
+    /// The state after this slice (`None` without an LSTM).
+    pub state: Option<SliceState>,
+}
+
+/// A model in validation mode with its anchors, classes, pipeline and NMS.
+#[derive(Debug, Clone)]
+pub struct Detector {
+    /// The network.
+    pub model: StarNet,
+    /// Its architecture (FLOP counts).
+    pub network: StarNetConfig,
+    /// The anchor grid the model's outputs are laid out on.
+    pub anchors: AnchorGrid,
+    /// The class of each class index the model scores.
+    pub classes: Vec<ObjectClass>,
+    /// Center sampling and gathering, at this detector's budget.
+    pub pipeline: PipelineConfig,
+    /// Score thresholds and NMS of the final boxes.
+    pub nms: NmsConfig,
+}
+
+impl Detector {
+    /// `model`, trained with `cfg`, at `cfg`'s evaluation budget.
+    pub fn new(model: StarNet, cfg: &ExperimentConfig) -> Self {
+        Self {
+            model,
+            network: cfg.model_config(),
+            anchors: cfg.model.anchors.clone(),
+            classes: cfg.data.classes.clone(),
+            pipeline: Budget::of(cfg).pipeline(&cfg.pipeline),
+            nms: cfg.nms_config(),
+        }
+    }
+
+    /// An export folder or a checkpoint (folder or `.bpk`, with the `config.toml` of its run),
+    /// at its config's evaluation budget; see [`TrainedModel::load`].
+    pub fn load(path: &Path) -> Result<Self> {
+        Ok(TrainedModel::load(path, None, &[])?.detector())
+    }
+
+    /// This detector at another budget (the same weights: StarNet's one model, many costs).
+    pub fn at_budget(&self, budget: Budget) -> Self {
+        Self {
+            pipeline: budget.pipeline(&self.pipeline),
+            ..self.clone()
+        }
+    }
+
+    /// Its budget.
+    pub fn budget(&self) -> Budget {
+        Budget {
+            num_centers: self.pipeline.num_centers,
+            num_points: self.pipeline.gather.num_points,
+            target: self.pipeline.target,
+        }
+    }
+
+    /// Forward GFLOP per frame at its budget.
+    pub fn gflop_per_frame(&self) -> f64 {
+        let b = self.budget();
+        forward_gflop(&self.network, b.model_centers(), b.num_points)
+    }
+
+    /// Samples `frame`'s centers (after the given `seeds`, which lead) and gathers their
+    /// neighbourhoods; `seed` seeds the sampler.
+    pub fn prepare(&self, frame: &Frame, seeds: &[[f32; 3]], seed: u64) -> PreparedFrame {
+        prepare_frame(frame, &self.pipeline, None, seeds, &mut ChaCha8Rng::seed_from_u64(seed))
+    }
+
+    /// The network on prepared frames, one batch.
+    ///
+    /// # Shapes
+    /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`
+    pub fn forward(&self, frames: &[&PreparedFrame]) -> ModelOutput {
+        self.model
+            .forward(make_input(frames, &starnet_model::backend::default_device()))
+    }
+
+    /// Frame `i` of `out` decoded: every box above `thresholds`' score thresholds, before NMS.
+    pub fn raw_detections(
+        &self,
+        out: &ModelOutput,
+        i: usize,
+        frame: &PreparedFrame,
+        thresholds: &NmsConfig,
+    ) -> Vec<Detection> {
+        decode_detections(out, i, frame, &self.anchors, thresholds)
+    }
+
+    /// The final boxes of prepared frames, best first per frame.
+    pub fn detect_prepared(&self, frames: &[&PreparedFrame]) -> Vec<Vec<Detection>> {
+        let out = self.forward(frames);
+        frames
+            .iter()
+            .enumerate()
+            .map(|(i, f)| nms(&self.raw_detections(&out, i, f, &self.nms), &self.nms))
+            .collect()
+    }
+
+    /// The final boxes of one frame (LiDAR frame, best first); `seed` seeds the center sampler.
+    pub fn detect(&self, frame: &Frame, seed: u64) -> Vec<Detection> {
+        self.detect_batch(&[frame], &[seed]).swap_remove(0)
+    }
+
+    /// The final boxes of frames run as one batch, frame `k` sampled from `seeds[k]`: one result
+    /// per (frame, seed) pair.
+    pub fn detect_batch(&self, frames: &[&Frame], seeds: &[u64]) -> Vec<Vec<Detection>> {
+        let prepared: Vec<PreparedFrame> = frames
+            .iter()
+            .zip(seeds)
+            .map(|(f, &s)| self.prepare(f, &[], s))
+            .collect();
+        self.detect_prepared(&prepared.iter().collect::<Vec<_>>())
+    }
+
+    /// One streamed slice through the network with the LSTM `state` of the sweep's earlier
+    /// slices (`None` at the sweep's start): its boxes before NMS and the next state.
+    pub fn detect_slice(&self, slice: &PreparedFrame, state: Option<SliceState>) -> SliceDetections {
+        let input = make_input(&[slice], &starnet_model::backend::default_device());
+        let (out, state) = self.model.forward_slices(input, 1, state);
+        SliceDetections {
+            raw: self.raw_detections(&out, 0, slice, &self.nms),
+            state,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use starnet_data::kitti::{Calib, ImageSize};
+    use starnet_data::sim::{SynthConfig, simulate_scene_frame};
+
+    fn frame(scene: u64) -> Frame {
+        let calib = Calib::kitti_000000();
+        let sim = simulate_scene_frame(scene, 0, &SynthConfig::default(), &calib);
+        Frame {
+            id: format!("{scene:06}"),
+            points: sim.points,
+            objects: sim.labels,
+            calib,
+            image_size: ImageSize::KITTI,
+        }
+    }
+
+    fn detector() -> Detector {
+        let mut cfg = ExperimentConfig::default();
+        cfg.model.blocks = vec![[16, 8]];
+        cfg.model.d_fc0 = 8;
+        cfg.model.d_offset = 8;
+        // Keep every box, so the comparisons are not vacuous.
+        cfg.nms.score = vec![0.0];
+        cfg.eval.num_centers = 32;
+        cfg.eval.num_points = 16;
+        let model = cfg.model_config().init(&starnet_model::backend::default_device());
+        Detector::new(model, &cfg)
+    }
+
+    #[test]
+    fn a_budget_round_trips_and_sets_the_pipeline() {
+        let d = detector();
+        let b = Budget {
+            num_centers: 48,
+            num_points: 8,
+            target: CenterTarget::Nearest(24),
+        };
+        let at = d.at_budget(b);
+        assert_eq!(at.budget(), b);
+        assert_eq!((at.pipeline.num_centers, at.pipeline.gather.num_points), (48, 8));
+        assert_eq!(at.at_budget(d.budget()).budget(), d.budget());
+        // Half the centers reach the model: half the FLOPs of the same budget with all of them.
+        let all = d.at_budget(Budget {
+            target: CenterTarget::All,
+            ..b
+        });
+        assert!((at.gflop_per_frame() * 2.0 - all.gflop_per_frame()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_batch_detects_what_its_frames_detect_alone() {
+        let d = detector();
+        let frames = [frame(1), frame(2)];
+        let batch = d.detect_batch(&[&frames[0], &frames[1]], &[5, 6]);
+        assert_eq!(batch.len(), 2);
+        for (k, (f, seed)) in frames.iter().zip([5, 6]).enumerate() {
+            let alone = d.detect(f, seed);
+            assert!(!alone.is_empty());
+            assert_eq!(alone.len(), batch[k].len());
+            for (a, b) in alone.iter().zip(&batch[k]) {
+                assert_eq!(a.class, b.class);
+                assert!((a.score - b.score).abs() < 1e-4, "{} vs {}", a.score, b.score);
+                assert!((a.b.x - b.b.x).abs() < 1e-3 && (a.b.heading - b.b.heading).abs() < 1e-3);
+            }
+        }
+        // Another sampling seed, other centers: the seed reaches the sampler.
+        assert_ne!(
+            d.prepare(&frames[0], &[], 5).centers,
+            d.prepare(&frames[0], &[], 7).centers
+        );
+    }
+}

@@ -1,0 +1,136 @@
+//! The training data: generated when the config asks for the simulator and it is absent, then
+//! per item loaded, augmented, sampled, gathered and assigned its targets, in loader threads.
+//!
+//! Determinism: the data order is a function of (seed, epoch) and item `k`'s randomness of
+//! (seed, k), so a resumed run sees exactly the items the uninterrupted one would have.
+
+use super::schedule::Schedule;
+use crate::Result;
+use crate::config::ExperimentConfig;
+use crate::prepare::database_path;
+use crate::synth::progress_bar;
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use starnet_data::augment::GtDatabase;
+use starnet_data::kitti::KittiDataset;
+use starnet_data::loader::Loader;
+use starnet_data::sampling::{Augmentation, PreparedFrame, prepare_frame, prepare_sweep};
+use starnet_data::sim::{SynthConfig, sub_seed, synth_frames};
+use starnet_model::assign::AnchorTargets;
+use starnet_model::batch::frame_targets;
+use std::sync::Arc;
+
+/// One prepared frame (a whole sweep, or one slice of it) with its anchor targets.
+#[derive(Debug, Clone)]
+pub struct TrainItem {
+    /// Centers, neighbourhoods and boxes.
+    pub frame: PreparedFrame,
+    /// What every anchor should predict.
+    pub targets: AnchorTargets,
+}
+
+/// Generates the built-in data if the config asks for it and it is absent, and the ground-truth
+/// database if the paste augmentation needs it.
+pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
+    let root = &cfg.data.root;
+    if !root.join("training/velodyne").is_dir() && cfg.data.simulate_frames > 0 {
+        println!(
+            "generating {} simulated frames at {}",
+            cfg.data.simulate_frames,
+            root.display()
+        );
+        let bar = progress_bar(cfg.data.simulate_frames as u64, "synth");
+        synth_frames(
+            root,
+            cfg.data.simulate_frames,
+            cfg.data.simulate_seed,
+            &SynthConfig::default(),
+            &|| bar.inc(1),
+        )?;
+        bar.finish_and_clear();
+    }
+    if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&database_path(root)) {
+        crate::prepare::run_prepare(root, &cfg.data.train_split)?;
+    }
+    Ok(())
+}
+
+/// The slice count of step `step` of a streaming config (drawn from `stream.train_slices`, the
+/// same for every sweep of the step), `None` when training on whole sweeps.
+pub fn slices_at(cfg: &ExperimentConfig, step: u64) -> Option<usize> {
+    let choices = &cfg.stream.train_slices;
+    (!choices.is_empty()).then(|| choices[(sub_seed(cfg.seed, 33, step) % choices.len() as u64) as usize])
+}
+
+/// The paste augmentation's database, when the config enables it.
+pub fn paste_database(cfg: &ExperimentConfig) -> Result<Option<Arc<GtDatabase>>> {
+    if !cfg.augment.db_paste.enabled {
+        return Ok(None);
+    }
+    Ok(Some(Arc::new(GtDatabase::read(&database_path(&cfg.data.root))?)))
+}
+
+/// Item `k` of a run (counting from its first step, `batch` items per step): a frame of
+/// `train_set` in the order of its epoch, augmented and prepared as one sweep or as the
+/// slices of its step.
+pub fn train_item(
+    cfg: &ExperimentConfig,
+    train_set: &KittiDataset,
+    database: Option<&GtDatabase>,
+    schedule: &Schedule,
+    k: usize,
+) -> starnet_data::Result<Vec<TrainItem>> {
+    let batch = cfg.train.batch_size;
+    let per_epoch = schedule.steps_per_epoch as usize * batch;
+    let (epoch, pos) = (k / per_epoch, k % per_epoch);
+    let n = train_set.ids().len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.shuffle(&mut ChaCha8Rng::seed_from_u64(sub_seed(cfg.seed, 31, epoch as u64)));
+    let frame = train_set.load(&train_set.ids()[order[pos % n]])?;
+    let mut rng = ChaCha8Rng::seed_from_u64(sub_seed(cfg.seed, 32, k as u64));
+    let aug = Augmentation {
+        config: &cfg.augment,
+        database,
+    };
+    // A sweep is a sequence of slices (one, unless streaming), each a frame of its own.
+    let slices = match slices_at(cfg, (k / batch) as u64) {
+        None => vec![prepare_frame(&frame, &cfg.pipeline, Some(aug), &[], &mut rng)],
+        Some(n) => prepare_sweep(&frame, &cfg.pipeline, &cfg.stream.slicing, n, Some(aug), &mut rng),
+    };
+    Ok(slices
+        .into_iter()
+        .map(|frame| TrainItem {
+            targets: frame_targets(&frame, &cfg.model.anchors, &cfg.data.classes, &cfg.assign),
+            frame,
+        })
+        .collect())
+}
+
+/// The items of steps `first_step..schedule.end`, prepared ahead in `train.workers` threads.
+pub fn train_loader(
+    cfg: &ExperimentConfig,
+    train_set: &KittiDataset,
+    database: Option<Arc<GtDatabase>>,
+    schedule: Schedule,
+    first_step: u64,
+) -> Loader<Vec<TrainItem>> {
+    let (ds, cfg) = (train_set.clone(), cfg.clone());
+    let batch = cfg.train.batch_size;
+    let steps = schedule.end - first_step.min(schedule.end);
+    Loader::new(
+        steps as usize * batch,
+        cfg.train.workers,
+        cfg.train.prefetch,
+        cfg.seed,
+        move |i, _| {
+            train_item(
+                &cfg,
+                &ds,
+                database.as_deref(),
+                &schedule,
+                first_step as usize * batch + i,
+            )
+        },
+    )
+}

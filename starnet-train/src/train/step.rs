@@ -1,0 +1,146 @@
+//! [`Trainer`]: the model, Adam, the weight EMA and the position of a run, and one optimisation
+//! step on a batch of prepared sweeps — the piece a custom training loop calls.
+
+use super::checkpoint::{Restored, TrainState, load_checkpoint, save_checkpoint};
+use super::clip::clip_global_norm;
+use super::data::TrainItem;
+use super::ema::WeightEma;
+use crate::config::ExperimentConfig;
+use crate::{Result, TrainError};
+use burn::module::Module;
+use burn::optim::decay::WeightDecayConfig;
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::prelude::Device;
+use serde::{Deserialize, Serialize};
+use starnet_model::batch::make_batch;
+use starnet_model::loss::{LossConfig, starnet_loss};
+use starnet_model::nn::StarNet;
+use std::path::{Path, PathBuf};
+
+/// The loss terms of a step (batch means) and the gradient norm before clipping.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StepLosses {
+    /// The weighted total.
+    pub loss: f32,
+    /// Focal classification.
+    pub classification: f32,
+    /// Position residuals.
+    pub location: f32,
+    /// Size residuals.
+    pub dimension: f32,
+    /// Heading residual.
+    pub rotation: f32,
+    /// Direction classifier.
+    pub direction: f32,
+    /// Global gradient norm before clipping.
+    pub grad_norm: f32,
+}
+
+/// A model being trained, with its optimiser, EMA and position.
+pub struct Trainer {
+    /// The model (on an autodiff device); `None` only inside [`Trainer::step`], so Adam
+    /// updates parameters it owns alone (in place) rather than copies.
+    model: Option<StarNet>,
+    /// Adam's moments.
+    pub optim: burn::optim::ModuleOptimizer,
+    /// The weight EMA, when the run keeps one.
+    pub ema: Option<WeightEma>,
+    /// Steps done and the best validation metric.
+    pub state: TrainState,
+    loss: LossConfig,
+    num_classes: usize,
+    grad_clip_norm: f32,
+    device: Device,
+}
+
+impl Trainer {
+    /// A fresh model on `device` (an autodiff device), or the checkpoint `resume_from`.
+    pub fn start(cfg: &ExperimentConfig, resume_from: Option<&Path>, device: &Device) -> Result<Self> {
+        let model_cfg = cfg.model_config();
+        let adam = AdamConfig::new()
+            .with_epsilon(cfg.train.adam_epsilon)
+            .with_weight_decay(Some(WeightDecayConfig::new(cfg.train.l2)));
+        let ema_decay = cfg.train.ema_decay;
+        let restored = match resume_from {
+            Some(dir) => load_checkpoint(dir, || model_cfg.init(device), &adam, ema_decay)?,
+            None => {
+                let model = model_cfg.init(device);
+                Restored {
+                    ema: (ema_decay > 0.0).then(|| WeightEma::new(ema_decay, &model)),
+                    model,
+                    optim: adam.init(),
+                    state: TrainState {
+                        step: 0,
+                        best_metric: None,
+                    },
+                }
+            }
+        };
+        Ok(Self {
+            model: Some(restored.model),
+            optim: restored.optim,
+            ema: restored.ema,
+            state: restored.state,
+            loss: cfg.loss.clone(),
+            num_classes: cfg.data.classes.len(),
+            grad_clip_norm: cfg.train.grad_clip_norm,
+            device: device.clone(),
+        })
+    }
+
+    /// One step at learning rate `lr` on `sweeps` (each a sequence of slices, all of one
+    /// length; one slice each unless streaming): forward, loss, backward, clipping, Adam, EMA.
+    /// A non-finite loss stops before the weights change.
+    pub fn step(&mut self, sweeps: &[Vec<TrainItem>], lr: f64) -> Result<StepLosses> {
+        let slices = sweeps[0].len();
+        // Sweep-major: the slices of each sweep in order, as `forward_slices` expects.
+        let frames: Vec<_> = sweeps.iter().flatten().map(|i| &i.frame).collect();
+        let targets: Vec<_> = sweeps.iter().flatten().map(|i| &i.targets).collect();
+        let b = make_batch(&frames, &targets, self.num_classes, &self.device);
+        let (out, _) = self.model().forward_slices(b.input, slices, None);
+        let terms = starnet_loss(&out, &b.targets, &self.loss);
+        let scalar = |t: &burn::Tensor<1>| t.clone().into_scalar::<f32>();
+        let mut losses = StepLosses {
+            loss: scalar(&terms.total),
+            classification: scalar(&terms.classification),
+            location: scalar(&terms.location),
+            dimension: scalar(&terms.dimension),
+            rotation: scalar(&terms.rotation),
+            direction: scalar(&terms.direction),
+            grad_norm: 0.0,
+        };
+        if !losses.loss.is_finite() {
+            return Err(TrainError::NonFiniteLoss {
+                step: self.state.step,
+                value: losses.loss,
+            });
+        }
+        let model = self.model.take().expect("the model is only taken within a step");
+        let mut grads = GradientsParams::from_grads(terms.total.backward(), &model);
+        losses.grad_norm = clip_global_norm(&model, &mut grads, self.grad_clip_norm);
+        let model = self.model.insert(self.optim.step(lr, model, grads));
+        self.state.step += 1;
+        if let Some(e) = self.ema.as_mut() {
+            e.update(model, self.state.step);
+        }
+        Ok(losses)
+    }
+
+    /// The model being trained.
+    pub fn model(&self) -> &StarNet {
+        self.model.as_ref().expect("the model is only taken within a step")
+    }
+
+    /// The model to evaluate and keep as `best`: the averaged weights when there is an EMA.
+    pub fn eval_model(&self) -> StarNet {
+        match &self.ema {
+            Some(e) => e.apply(self.model()),
+            None => self.model().valid(),
+        }
+    }
+
+    /// Writes the whole state as checkpoint `dir/name` (atomically).
+    pub fn save(&self, dir: &Path, name: &str) -> Result<PathBuf> {
+        save_checkpoint(dir, name, self.model(), &self.optim, self.ema.as_ref(), &self.state)
+    }
+}
