@@ -52,9 +52,9 @@ pub fn sweep_files(input: &Path) -> Result<Vec<PathBuf>> {
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(TrainError::InvalidArgument {
-            name: "--input".into(),
-            message: format!("{} holds no .bin file", input.display()),
+        return Err(TrainError::NoInput {
+            dir: input.to_path_buf(),
+            what: ".bin file".into(),
         });
     }
     Ok(files)

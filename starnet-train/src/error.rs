@@ -52,6 +52,29 @@ pub enum TrainError {
         /// The parser's message.
         message: String,
     },
+    /// A run folder that already holds checkpoints, trained into without resuming.
+    #[error("{dir} already holds checkpoints: resume the run, or choose another run folder")]
+    RunExists {
+        /// The run folder.
+        dir: PathBuf,
+    },
+    /// An output folder that already holds what would be written into it.
+    #[error("{dir} already holds generated data; choose an empty folder")]
+    NotEmpty {
+        /// The folder.
+        dir: PathBuf,
+    },
+    /// A folder without the inputs a command reads.
+    #[error("{dir} holds no {what}")]
+    NoInput {
+        /// The folder.
+        dir: PathBuf,
+        /// What was looked for, and where it would come from.
+        what: String,
+    },
+    /// A model the operation does not support.
+    #[error("{0}")]
+    Unsupported(String),
     /// A command-line or config value out of range.
     #[error("{name}: {message}")]
     InvalidArgument {

@@ -201,10 +201,9 @@ pub fn export(model: &StarNet, cfg: &ExperimentConfig, out: &Path) -> Result<Vec
     if model.has_lstm() {
         // The ONNX graph and model.json describe the per-center network only; a half export
         // that silently drops the LSTM would detect differently.
-        return Err(crate::TrainError::InvalidArgument {
-            name: "--checkpoint".into(),
-            message: "exporting the streaming LSTM variant (model.lstm_hidden > 0) is not supported yet".into(),
-        });
+        return Err(crate::TrainError::Unsupported(
+            "exporting the streaming LSTM variant (model.lstm_hidden > 0) is not supported yet".into(),
+        ));
     }
     std::fs::create_dir_all(out).map_err(|e| starnet_data::DataError::io(out, e))?;
     let metadata = BTreeMap::from([

@@ -40,13 +40,7 @@ pub fn run_synth(root: &Path, job: SynthJob, seed: u64, cfg: &SynthConfig) -> Re
         SynthJob::Sequences { .. } => root.join("sequences"),
     };
     if existing.read_dir().is_ok_and(|mut d| d.next().is_some()) {
-        return Err(TrainError::InvalidArgument {
-            name: "--out".into(),
-            message: format!(
-                "{} already holds generated data; choose an empty folder",
-                existing.display()
-            ),
-        });
+        return Err(TrainError::NotEmpty { dir: existing });
     }
     let start = Instant::now();
     let total = match job {

@@ -31,12 +31,9 @@ pub fn open_sequences(root: &Path, cfg: &ExperimentConfig) -> Result<Vec<Sequenc
         .collect();
     names.sort();
     if names.is_empty() {
-        return Err(TrainError::InvalidArgument {
-            name: "--data".into(),
-            message: format!(
-                "{} holds no sequence folders (write some with `starnet synth --out ROOT --sequences 10 --length 20`)",
-                dir.display()
-            ),
+        return Err(TrainError::NoInput {
+            dir,
+            what: "sequence folders (the simulator writes them: `starnet synth --sequences`)".into(),
         });
     }
     names.iter().map(|name| Sequence::open(&dir.join(name), cfg)).collect()

@@ -92,13 +92,7 @@ impl RunFolder {
         let checkpoints = dir.join("checkpoints");
         let resume_from = latest_checkpoint(&checkpoints);
         if resume_from.is_some() && !resume {
-            return Err(TrainError::InvalidArgument {
-                name: "--resume".into(),
-                message: format!(
-                    "{} already holds checkpoints: pass --resume to continue it, or choose another run",
-                    dir.display()
-                ),
-            });
+            return Err(TrainError::RunExists { dir: dir.to_path_buf() });
         }
         std::fs::create_dir_all(&checkpoints).map_err(|e| starnet_data::DataError::io(&checkpoints, e))?;
         starnet_data::io::atomic_write(&dir.join("config.toml"), to_toml(cfg).as_bytes())?;

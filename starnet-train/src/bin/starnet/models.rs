@@ -47,7 +47,10 @@ impl Train {
             max_steps: self.max_steps,
             stop: Some(stop),
         };
-        let summary = train(&cfg, &run_dir, &opts)?;
+        let summary = train(&cfg, &run_dir, &opts).map_err(|e| match e {
+            starnet_train::TrainError::RunExists { .. } => anyhow::anyhow!("{e}; pass --resume to continue it"),
+            e => e.into(),
+        })?;
         println!("{} steps; run folder {}", summary.steps, summary.run_dir.display());
         if let Some(report) = summary.eval {
             print!("{report}");
