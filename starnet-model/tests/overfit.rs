@@ -6,7 +6,7 @@ use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams};
 use starnet_data::Box3d;
 use starnet_data::geometry::iou_bev;
-use starnet_data::kitti::{Calib, Frame, ImageSize, ObjectClass};
+use starnet_data::kitti::{Calib, ObjectClass};
 use starnet_data::sampling::{GatherConfig, PipelineConfig, prepare_frame};
 use starnet_data::sim::{SynthConfig, simulate_scene_frame};
 use starnet_model::assign::AssignConfig;
@@ -20,14 +20,7 @@ use starnet_model::nn::StarNetConfig;
 fn small_model_overfits_one_frame_and_recovers_its_cars() {
     use rand::SeedableRng;
     let calib = Calib::kitti_000000();
-    let sim = simulate_scene_frame(5, 0, &SynthConfig::default(), &calib);
-    let frame = Frame {
-        id: "000000".into(),
-        points: sim.points,
-        objects: sim.labels,
-        calib,
-        image_size: ImageSize::KITTI,
-    };
+    let frame = simulate_scene_frame(5, 0, &SynthConfig::default(), &calib).into_frame("000000", calib);
     let cars: Vec<Box3d> = frame
         .labelled_boxes()
         .into_iter()

@@ -209,19 +209,12 @@ impl Detector {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use starnet_data::kitti::{Calib, ImageSize};
+    use starnet_data::kitti::Calib;
     use starnet_data::sim::{SynthConfig, simulate_scene_frame};
 
     fn frame(scene: u64) -> Frame {
         let calib = Calib::kitti_000000();
-        let sim = simulate_scene_frame(scene, 0, &SynthConfig::default(), &calib);
-        Frame {
-            id: format!("{scene:06}"),
-            points: sim.points,
-            objects: sim.labels,
-            calib,
-            image_size: ImageSize::KITTI,
-        }
+        simulate_scene_frame(scene, 0, &SynthConfig::default(), &calib).into_frame(format!("{scene:06}"), calib)
     }
 
     fn detector() -> Detector {

@@ -3,10 +3,7 @@
 //! export) mutated byte-wise (bit flips, interesting bytes, deletions, duplications, splices,
 //! truncation) and, for text, token-wise (numbers swapped for `nan`, `inf`, `-1`, `1e39`, …;
 //! lines dropped, repeated or swapped). A parser passes when no input makes it panic; an error
-//! is the right answer to garbage. Used by `tests/fuzz.rs` (a short pass in CI) and by
-//! `cargo run -p starnet-train --example fuzz` (the long one).
-
-#![allow(dead_code)] // each user takes what it needs
+//! is the right answer to garbage. Run by `tests/fuzz.rs`.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -43,21 +40,14 @@ pub struct Outcome {
     pub panic_count: u64,
 }
 
-/// The KITTI sample (`STARNET_KITTI_SAMPLE`, else `../shared/kitti-sample`).
-pub fn kitti_sample() -> PathBuf {
-    std::env::var_os("STARNET_KITTI_SAMPLE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/kitti-sample"))
-}
-
 fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn sample_files(sub: &str) -> Vec<Vec<u8>> {
-    let dir = kitti_sample().join("training").join(sub);
+fn sample_files(sample: &Path, sub: &str) -> Vec<Vec<u8>> {
+    let dir = sample.join("training").join(sub);
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e} (set STARNET_KITTI_SAMPLE)", dir.display()))
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.unwrap().path())
         .collect();
     files.sort();
@@ -74,9 +64,9 @@ fn text_of(bytes: &[u8]) -> Option<&str> {
     std::str::from_utf8(bytes).ok()
 }
 
-fn velodyne() -> Target {
+fn velodyne(sample: &Path) -> Target {
     // Whole sweeps are megabytes; their first few kilobytes hold every structure there is.
-    let mut corpus: Vec<Vec<u8>> = sample_files("velodyne")
+    let mut corpus: Vec<Vec<u8>> = sample_files(sample, "velodyne")
         .into_iter()
         .map(|b| b[..4096].to_vec())
         .collect();
@@ -90,8 +80,8 @@ fn velodyne() -> Target {
     }
 }
 
-fn labels() -> Target {
-    let mut corpus = sample_files("label_2");
+fn labels(sample: &Path) -> Target {
+    let mut corpus = sample_files(sample, "label_2");
     corpus.push(format_labels(&simulated(2).labels).into_bytes());
     Target {
         name: "label_2 / results",
@@ -101,8 +91,8 @@ fn labels() -> Target {
     }
 }
 
-fn calib() -> Target {
-    let mut corpus = sample_files("calib");
+fn calib(sample: &Path) -> Target {
+    let mut corpus = sample_files(sample, "calib");
     corpus.push(Calib::kitti_000000().format().into_bytes());
     Target {
         name: "calib",
@@ -166,8 +156,8 @@ fn config() -> Target {
     }
 }
 
-fn gt_database() -> Target {
-    let ds = KittiDataset::open(kitti_sample(), None).unwrap();
+fn gt_database(sample: &Path) -> Target {
+    let ds = KittiDataset::open(sample, None).unwrap();
     let db = GtDatabase::build(&ds, &|| {}).unwrap();
     let mut small = db.clone();
     small.entries.truncate(2);
@@ -226,17 +216,17 @@ fn export() -> Target {
     }
 }
 
-/// Every target.
-pub fn targets() -> Vec<Target> {
+/// Every target, seeded from the KITTI sample at `sample` and the workspace's own files.
+pub fn targets(sample: &Path) -> Vec<Target> {
     vec![
-        velodyne(),
-        labels(),
-        calib(),
+        velodyne(sample),
+        labels(sample),
+        calib(sample),
         poses(),
         split(),
         sidecar(),
         config(),
-        gt_database(),
+        gt_database(sample),
         checkpoint(),
         export(),
     ]

@@ -17,7 +17,7 @@ use super::labels::{label_frame, occlusion_level};
 use super::{LidarConfig, SimObject, World, scan, write_sidecar};
 use crate::io::atomic_write;
 use crate::kitti::{
-    Calib, ImageSize, KittiObject, ObjectClass, format_c_exp, format_labels, write_points, write_split,
+    Calib, Frame, ImageSize, KittiObject, ObjectClass, format_c_exp, format_labels, write_points, write_split,
 };
 use crate::par::parallel_for;
 use crate::{Point, Result};
@@ -64,6 +64,20 @@ pub struct SynthFrame {
     pub owners: Vec<Option<u32>>,
     /// Sensor pose in the scene's first frame: `[x, y, z, yaw]`.
     pub pose: [f32; 4],
+}
+
+impl SynthFrame {
+    /// The frame as a dataset would load it (KITTI image size, `calib`, the `label_2` objects):
+    /// for detecting on a simulated scene without writing it out.
+    pub fn into_frame(self, id: impl Into<String>, calib: Calib) -> Frame {
+        Frame {
+            id: id.into(),
+            points: self.points,
+            objects: self.labels,
+            calib,
+            image_size: ImageSize::KITTI,
+        }
+    }
 }
 
 /// SplitMix64 of `seed`, `stream` and `index`: independent, reproducible sub-seeds.

@@ -91,8 +91,13 @@ struct Cleaned {
     gt: Vec<Role>,
     dt: Vec<Role>,
     dontcare: Vec<[f32; 4]>,
+}
+
+impl Cleaned {
     /// Ground-truth objects that count.
-    valid: usize,
+    fn valid(&self) -> usize {
+        self.gt.iter().filter(|r| **r == Role::Counted).count()
+    }
 }
 
 fn clean(gt: &[KittiObject], dt: &[KittiObject], class: ObjectClass, diff: Difficulty) -> Cleaned {
@@ -134,7 +139,6 @@ fn clean(gt: &[KittiObject], dt: &[KittiObject], class: ObjectClass, diff: Diffi
         })
         .collect();
     Cleaned {
-        valid: gt_roles.iter().filter(|r| **r == Role::Counted).count(),
         gt: gt_roles,
         dt: dt_roles,
         dontcare,
@@ -342,7 +346,7 @@ fn curves(
             roles: clean(gt, dt, class, diff),
         })
         .collect();
-    let total_valid: usize = data.iter().map(|f| f.roles.valid).sum();
+    let total_valid: usize = data.iter().map(|f| f.roles.valid()).sum();
     let (mut precision, mut orientation) = ([0.0; SAMPLES], [0.0; SAMPLES]);
     if total_valid == 0 {
         // The Python port divides by zero here; no object of the class means AP 0.

@@ -315,7 +315,7 @@ mod tests {
     use crate::config::ExperimentConfig;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
-    use starnet_data::kitti::{Calib, ImageSize};
+    use starnet_data::kitti::Calib;
     use starnet_data::sampling::prepare_frame;
     use starnet_data::sim::{SynthConfig, simulate_scene_frame};
     use starnet_model::batch::decode_frame;
@@ -323,14 +323,7 @@ mod tests {
 
     fn frame() -> Frame {
         let calib = Calib::kitti_000000();
-        let sim = simulate_scene_frame(3, 0, &SynthConfig::default(), &calib);
-        Frame {
-            id: "000000".into(),
-            points: sim.points,
-            objects: sim.labels,
-            calib,
-            image_size: ImageSize::KITTI,
-        }
+        simulate_scene_frame(3, 0, &SynthConfig::default(), &calib).into_frame("000000", calib)
     }
 
     fn setup() -> (ExperimentConfig, Detector, Budget) {

@@ -50,4 +50,4 @@ pub use evaluate::{EvalOptions, EvalReport, RANGE_BINS_MAX_M, Scorer, evaluate, 
 pub use log::{StepRecord, TrainLog, progress_line};
 pub use schedule::{Schedule, lr_multiplier};
 pub use step::{StepLosses, Trainer};
-pub use trainer::{RunFolder, TrainOptions, TrainSummary, end_epoch, run_dir_for, train, validate};
+pub use trainer::{OnTie, RunFolder, TrainOptions, TrainSummary, end_epoch, run_dir_for, train, validate};

@@ -75,6 +75,15 @@ pub fn run_dir_for(cfg: &ExperimentConfig, config_path: &Path) -> PathBuf {
     cfg.train.run_root.join(config_path.file_stem().unwrap_or_default())
 }
 
+/// Which checkpoint [`RunFolder::keep_best`] keeps when a new metric equals the best.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OnTie {
+    /// The earlier `best` (evaluations during training).
+    KeepOld,
+    /// The new weights (the final evaluation: the run's last word).
+    TakeNew,
+}
+
 /// A run folder, ready: `checkpoints/` exists and `config.toml` holds the resolved config.
 #[derive(Debug, Clone)]
 pub struct RunFolder {
@@ -110,12 +119,13 @@ impl RunFolder {
         Ok(())
     }
 
-    /// Keeps `trainer` as `best` when `metric` beats (or with `ties`, equals) the best so far.
-    pub fn keep_best(&self, trainer: &mut Trainer, metric: f64, ties: bool) -> Result<()> {
+    /// Keeps `trainer` as `best` when `metric` beats the best so far (or equals it, with
+    /// [`OnTie::TakeNew`]).
+    pub fn keep_best(&self, trainer: &mut Trainer, metric: f64, on_tie: OnTie) -> Result<()> {
         let better = trainer
             .state
             .best_metric
-            .is_none_or(|b| metric > b || (ties && metric == b));
+            .is_none_or(|b| metric > b || (on_tie == OnTie::TakeNew && metric == b));
         if better {
             trainer.state.best_metric = Some(metric);
             trainer.save(&self.checkpoints, "best")?;
@@ -183,7 +193,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
         return Ok(summary(&run, &trainer, true, None));
     }
     let report = validate(&trainer.eval_model(), cfg, &val_set, Some(&run.dir.join("results")))?;
-    run.keep_best(&mut trainer, report.headline(), true)?;
+    run.keep_best(&mut trainer, report.headline(), OnTie::TakeNew)?;
     starnet_data::io::atomic_write(
         &run.dir.join("eval.json"),
         serde_json::to_string_pretty(&report).expect("serialises").as_bytes(),
@@ -207,7 +217,7 @@ pub fn end_epoch(
     if due {
         let report = validate(&trainer.eval_model(), cfg, val_set, None)?;
         log.evaluation(step, report.headline())?;
-        run.keep_best(trainer, report.headline(), false)?;
+        run.keep_best(trainer, report.headline(), OnTie::KeepOld)?;
     }
     run.save_step(trainer, cfg.train.keep_last)
 }
