@@ -101,23 +101,10 @@ pub fn assign_targets(
 ) -> AnchorTargets {
     let n = anchors.len();
     let c_n = n / a.max(1);
-    // Best object per anchor, and IoU matrix entries kept sparse via the bounding-circle filter.
-    let mut best = vec![(-1i32, 0f32); n];
-    let mut best_anchor = vec![(usize::MAX, 0f32); boxes.len()];
-    // Corners and circles once per box, not once per pair: this loop is most of the loader's
-    // assignment time.
-    let prepared: Vec<PreparedBox> = boxes.iter().map(PreparedBox::new).collect();
-    for (i, an) in anchors.iter().map(PreparedBox::new).enumerate() {
-        for (j, b) in prepared.iter().enumerate() {
-            let iou = iou_bev_prepared(&an, b);
-            if iou > best[i].1 {
-                best[i] = (j as i32, iou);
-            }
-            if iou > best_anchor[j].1 {
-                best_anchor[j] = (i, iou);
-            }
-        }
-    }
+    let BestOverlaps {
+        per_anchor: best,
+        per_object: best_anchor,
+    } = best_overlaps(anchors, a, boxes);
     let mut matched: Vec<i32> = best
         .iter()
         .map(|&(j, iou)| if iou >= cfg.fg_iou { j } else { -1 })
@@ -166,11 +153,126 @@ pub fn assign_targets(
     out
 }
 
+/// Each anchor's best object and each object's best anchor by rotated BEV IoU (the first on
+/// ties; `(-1, 0)` and `(usize::MAX, 0)` where every IoU is 0).
+#[derive(Debug, Clone, PartialEq)]
+struct BestOverlaps {
+    per_anchor: Vec<(i32, f32)>,
+    per_object: Vec<(usize, f32)>,
+}
+
+/// [`BestOverlaps`] of `anchors` (center-major, `a` per center) and `boxes`.
+fn best_overlaps(anchors: &[Box3d], a: usize, boxes: &[Box3d]) -> BestOverlaps {
+    let a = a.max(1);
+    let mut best = BestOverlaps {
+        per_anchor: vec![(-1, 0.0); anchors.len()],
+        per_object: vec![(usize::MAX, 0.0); boxes.len()],
+    };
+    // Corners and circles once per box, not once per pair: this loop is most of the loader's
+    // assignment time. A pair of IoU 0 changes nothing (every comparison is strict), so a
+    // center's anchors meet only the objects within their reach, and only then get corners.
+    let prepared: Vec<PreparedBox> = boxes.iter().map(PreparedBox::new).collect();
+    let mut near = Vec::with_capacity(boxes.len());
+    for (g, group) in anchors.chunks(a).enumerate() {
+        objects_within_reach(group, boxes, &mut near);
+        if near.is_empty() {
+            continue;
+        }
+        for (k, an) in group.iter().map(PreparedBox::new).enumerate() {
+            let i = g * a + k;
+            for &j in &near {
+                let iou = iou_bev_prepared(&an, &prepared[j]);
+                if iou > best.per_anchor[i].1 {
+                    best.per_anchor[i] = (j as i32, iou);
+                }
+                if iou > best.per_object[j].1 {
+                    best.per_object[j] = (i, iou);
+                }
+            }
+        }
+    }
+    best
+}
+
+/// Fills `near` with the objects whose footprint circle can touch the circle of some anchor in
+/// `group`: within the group's reach (its anchors' centroid to the farthest anchor's circle)
+/// plus the object's radius, with a millimetre to spare against rounding. The others have
+/// IoU 0 with every anchor of the group.
+fn objects_within_reach(group: &[Box3d], objects: &[Box3d], near: &mut Vec<usize>) {
+    near.clear();
+    let n = group.len().max(1) as f64;
+    let cx = group.iter().map(|b| b.x as f64).sum::<f64>() / n;
+    let cy = group.iter().map(|b| b.y as f64).sum::<f64>() / n;
+    let dist = |b: &Box3d| (b.x as f64 - cx).hypot(b.y as f64 - cy);
+    let reach = group
+        .iter()
+        .map(|b| dist(b) + b.bev_radius() as f64)
+        .fold(0.0, f64::max);
+    near.extend((0..objects.len()).filter(|&j| dist(&objects[j]) <= reach + objects[j].bev_radius() as f64 + 1e-3));
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use starnet_data::geometry::iou_bev;
     use starnet_data::sampling::AnchorGrid;
+
+    /// The definition, every pair: the pruned [`best_overlaps`] must equal it exactly.
+    fn best_overlaps_of_every_pair(anchors: &[Box3d], boxes: &[Box3d]) -> BestOverlaps {
+        let mut best = BestOverlaps {
+            per_anchor: vec![(-1, 0.0); anchors.len()],
+            per_object: vec![(usize::MAX, 0.0); boxes.len()],
+        };
+        for (i, an) in anchors.iter().enumerate() {
+            for (j, b) in boxes.iter().enumerate() {
+                let iou = iou_bev(an, b);
+                if iou > best.per_anchor[i].1 {
+                    best.per_anchor[i] = (j as i32, iou);
+                }
+                if iou > best.per_object[j].1 {
+                    best.per_object[j] = (i, iou);
+                }
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn pruned_overlaps_equal_those_of_every_pair() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for grid in [AnchorGrid::kitti_car(), AnchorGrid::kitti_pedestrian()] {
+            // Centers and objects in a 20 m square: some far apart, some overlapping.
+            let mut xy = || [rng.random_range(0.0..20.0), rng.random_range(0.0..20.0)];
+            let centers: Vec<[f32; 3]> = (0..40)
+                .map(|_| {
+                    let [x, y] = xy();
+                    [x, y, -1.0]
+                })
+                .collect();
+            let boxes: Vec<Box3d> = (0..12)
+                .map(|k| {
+                    let [x, y] = xy();
+                    Box3d::new(
+                        x,
+                        y,
+                        -1.0,
+                        0.5 + 0.4 * k as f32,
+                        0.5 + 0.15 * k as f32,
+                        1.5,
+                        0.5 * k as f32,
+                    )
+                })
+                .collect();
+            let an: Vec<Box3d> = centers.iter().flat_map(|c| grid.anchors_around(*c)).collect();
+            let pruned = best_overlaps(&an, grid.len(), &boxes);
+            assert_eq!(pruned, best_overlaps_of_every_pair(&an, &boxes));
+            assert!(
+                pruned.per_anchor.iter().filter(|m| m.0 >= 0).count() > 50,
+                "overlaps exist"
+            );
+        }
+    }
 
     fn anchors(centers: &[[f32; 3]]) -> (Vec<Box3d>, usize) {
         let g = AnchorGrid::kitti_car();

@@ -31,6 +31,23 @@ pub fn default_device() -> Device {
     }
 }
 
+/// Makes the calling thread one of the compute pool's threads (rayon's global pool, of
+/// `RAYON_NUM_THREADS` or one thread per core in all, this one included). Call it first, from
+/// the thread that will run the model: the parallel parts of every operation it starts (the
+/// products, the fused blocks' row passes) then run on it and the pool's other threads, instead
+/// of being handed to the pool while it sleeps until they are done, a hand-over and a wake-up
+/// per operation that cost a fifth of a small model's training step (BENCHMARKS.md, issue
+/// #16). Results do not change: reductions do not depend on the threads.
+///
+/// Returns false, changing nothing, when the global pool already exists (everything works
+/// then, only with the hand-overs).
+pub fn compute_on_this_thread() -> bool {
+    rayon::ThreadPoolBuilder::new()
+        .use_current_thread()
+        .build_global()
+        .is_ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

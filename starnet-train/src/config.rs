@@ -140,6 +140,11 @@ pub struct TrainSection {
     pub ema_decay: f64,
     /// Data-loader worker threads.
     pub workers: usize,
+    /// Threads a training step computes on, in a pool of its own (0: `RAYON_NUM_THREADS`, else one
+    /// per core). A small model beside a busy loader gains nothing from a second thread on 2 cores
+    /// (it contends with the loader for its core: the quickstart sets 1); the paper's widths
+    /// train 1.4× faster on two than on one (BENCHMARKS.md, issue #16).
+    pub step_threads: usize,
     /// Frames prepared ahead.
     pub prefetch: usize,
     /// Print a plain log line every this many steps (when stderr is not a terminal).
@@ -235,6 +240,7 @@ impl Default for ExperimentConfig {
                 l2: 1e-4,
                 ema_decay: 0.99,
                 workers: 1,
+                step_threads: 0,
                 prefetch: 4,
                 log_every: 50,
                 eval_every: 0,

@@ -75,6 +75,14 @@ pub enum TrainError {
     /// A model the operation does not support.
     #[error("{0}")]
     Unsupported(String),
+    /// The training step's compute threads could not be started.
+    #[error("cannot start the training step's {threads} compute threads: {source}")]
+    Threads {
+        /// How many were asked for.
+        threads: usize,
+        /// Why not.
+        source: rayon::ThreadPoolBuildError,
+    },
     /// A command-line or config value out of range.
     #[error("{name}: {message}")]
     InvalidArgument {

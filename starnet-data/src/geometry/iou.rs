@@ -1,6 +1,6 @@
 //! Rotated IoU of boxes: bird's-eye view (footprints) and 3D (footprint overlap × z overlap).
 
-use super::{Box3d, convex_intersection_area};
+use super::{Box3d, convex_intersection_area, convex_separated};
 
 /// Which IoU a matrix holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -31,13 +31,19 @@ impl PreparedBox {
             corners: b.corners_bev_f64(),
         }
     }
+
+    /// Whether the footprints' bounding circles touch (the footprints can overlap only then).
+    fn circle_touches(&self, other: &PreparedBox) -> bool {
+        let (dx, dy) = ((self.b.x - other.b.x) as f64, (self.b.y - other.b.y) as f64);
+        let r = (self.radius + other.radius) as f64;
+        dx * dx + dy * dy <= r * r
+    }
 }
 
-/// Footprint intersection area, 0 when the bounding circles do not touch.
+/// Footprint intersection area, 0 when the bounding circles do not touch or an edge separates
+/// the footprints (two cheap tests before the clip: most pairs of an anchor assignment fail one).
 fn bev_intersection(a: &PreparedBox, b: &PreparedBox) -> f64 {
-    let (dx, dy) = ((a.b.x - b.b.x) as f64, (a.b.y - b.b.y) as f64);
-    let r = (a.radius + b.radius) as f64;
-    if dx * dx + dy * dy > r * r {
+    if !a.circle_touches(b) || convex_separated(&a.corners, &b.corners) {
         return 0.0;
     }
     convex_intersection_area(&a.corners, &b.corners)

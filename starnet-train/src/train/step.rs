@@ -16,6 +16,7 @@ use starnet_model::batch::make_batch;
 use starnet_model::loss::{LossConfig, starnet_loss};
 use starnet_model::nn::StarNet;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The loss terms of a step (batch means) and the gradient norm before clipping.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -51,10 +52,24 @@ pub struct Trainer {
     num_classes: usize,
     grad_clip_norm: f32,
     device: Device,
+    /// The threads a step computes on (`train.step_threads`).
+    pool: Arc<rayon::ThreadPool>,
+}
+
+/// The step's pool: `threads` threads, 0 meaning rayon's default (`RAYON_NUM_THREADS`, else one
+/// per core).
+fn step_pool(threads: usize) -> Result<Arc<rayon::ThreadPool>> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("starnet-step-{i}"))
+        .build()
+        .map_err(|source| TrainError::Threads { threads, source })?;
+    Ok(Arc::new(pool))
 }
 
 impl Trainer {
-    /// A fresh model on `device` (an autodiff device), or the checkpoint `resume_from`.
+    /// A fresh model on `device` (an autodiff device), or the checkpoint `resume_from`; its
+    /// steps compute on `cfg.train.step_threads` threads of their own.
     pub fn start(cfg: &ExperimentConfig, resume_from: Option<&Path>, device: &Device) -> Result<Self> {
         let model_cfg = cfg.model_config();
         let adam = AdamConfig::new()
@@ -85,6 +100,7 @@ impl Trainer {
             num_classes: cfg.data.classes.len(),
             grad_clip_norm: cfg.train.grad_clip_norm,
             device: device.clone(),
+            pool: step_pool(cfg.train.step_threads)?,
         })
     }
 
@@ -92,6 +108,13 @@ impl Trainer {
     /// length; one slice each unless streaming): forward, loss, backward, clipping, Adam, EMA.
     /// A non-finite loss stops before the weights change.
     pub fn step(&mut self, sweeps: &[Vec<TrainItem>], lr: f64) -> Result<StepLosses> {
+        // The whole step on the step's threads: its operations' parallel parts then stay
+        // there instead of each being handed over from this thread.
+        let pool = Arc::clone(&self.pool);
+        pool.install(|| self.step_here(sweeps, lr))
+    }
+
+    fn step_here(&mut self, sweeps: &[Vec<TrainItem>], lr: f64) -> Result<StepLosses> {
         let slices = sweeps[0].len();
         // Sweep-major: the slices of each sweep in order, as `forward_slices` expects.
         let frames: Vec<_> = sweeps.iter().flatten().map(|i| &i.frame).collect();

@@ -46,7 +46,7 @@ pub struct TrainOutput {
 }
 
 /// A contiguous f32 view of a flex tensor, copying only if it is strided.
-fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
+pub(crate) fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
     match t.as_slice::<f32>() {
         Some(s) => Cow::Borrowed(s),
         None => Cow::Owned(t.to_contiguous().into_data().iter::<f32>().collect()),

@@ -41,6 +41,9 @@ enum Command {
 }
 
 fn main() -> anyhow::Result<()> {
+    // The model runs on this thread: let it take part in its own parallel work. Had another
+    // pool been built first, everything would still work, only slower.
+    starnet_model::backend::compute_on_this_thread();
     match Cli::parse().command {
         Command::Inspect(c) => c.run(),
         Command::Render(c) => c.run(),

@@ -6,6 +6,13 @@
 //! Total = 3 · (3 · location + 0.3 · dimension + 0.3 · rotation) + classification, plus
 //! `direction_weight` · the cross-entropy of the direction bins on the foreground anchors when
 //! the model has the direction classifier (OpenPCDet: weight 0.2, same anchor weights).
+//!
+//! On flex the five terms are one fused operation ([`op::loss_terms`], the maths in
+//! [`kernel`]) unless [`LossConfig::fused`] is off; [`starnet_loss_composed`] is the reference
+//! and the path on every other backend.
+
+pub mod kernel;
+pub mod op;
 
 use crate::nn::ModelOutput;
 use burn::prelude::*;
@@ -56,6 +63,11 @@ pub struct LossConfig {
     /// Weight of the direction-bin cross-entropy in the total (OpenPCDet's 0.2).
     #[config(default = 0.2)]
     pub direction_weight: f64,
+    /// Compute the terms as one fused operation where the backend allows it (flex, f32): the
+    /// same maths to float rounding, with a fraction of the memory passes; false: the composed
+    /// Burn operations everywhere (the reference).
+    #[config(default = true)]
+    pub fused: bool,
 }
 
 impl LossConfig {
@@ -144,8 +156,47 @@ pub fn wrap_angle<const D: usize>(x: Tensor<D>) -> Tensor<D> {
     x.clone() - ((x + std::f64::consts::PI) / tau).floor() * tau
 }
 
-/// The StarNet loss of a batch.
+/// The StarNet loss of a batch: fused where [`LossConfig::fused`] and the backend allow it,
+/// else [`starnet_loss_composed`].
 pub fn starnet_loss(out: &ModelOutput, t: &LossTargets, cfg: &LossConfig) -> LossTerms {
+    if cfg.fused
+        && let Some(terms) = op::loss_terms(out, t, &kernel_config(cfg))
+    {
+        return combine(terms.split(1, 0).try_into().expect("five terms"), cfg);
+    }
+    starnet_loss_composed(out, t, cfg)
+}
+
+fn kernel_config(cfg: &LossConfig) -> kernel::KernelConfig {
+    kernel::KernelConfig {
+        alpha: cfg.alpha as f32,
+        gamma: cfg.gamma as f32,
+        huber_delta: cfg.huber_delta as f32,
+        heading: cfg.heading,
+    }
+}
+
+/// The weighted total beside its five terms (classification, location, dimension, rotation,
+/// direction), each `[1]`.
+fn combine([classification, location, dimension, rotation, direction]: [Tensor<1>; 5], cfg: &LossConfig) -> LossTerms {
+    let localization = location.clone() * cfg.location_weight
+        + dimension.clone() * cfg.dimension_weight
+        + rotation.clone() * cfg.rotation_weight;
+    let total = localization * cfg.localization_weight
+        + classification.clone() * cfg.classification_weight
+        + direction.clone() * cfg.direction_weight;
+    LossTerms {
+        total,
+        classification,
+        location,
+        dimension,
+        rotation,
+        direction,
+    }
+}
+
+/// The StarNet loss of a batch as composed Burn operations (the reference).
+pub fn starnet_loss_composed(out: &ModelOutput, t: &LossTargets, cfg: &LossConfig) -> LossTerms {
     let [b, _, _, _] = out.cls_logits.dims();
     let per_batch = |x: Tensor<3>, w: &Tensor<3>| (x * w.clone()).sum().div_scalar(b as f32);
     let focal = sigmoid_focal(out.cls_logits.clone(), t.classes.clone(), cfg.alpha, cfg.gamma)
@@ -170,20 +221,7 @@ pub fn starnet_loss(out: &ModelOutput, t: &LossTargets, cfg: &LossConfig) -> Los
         Some(d) => per_batch(two_bin_cross_entropy(d.clone(), t.direction.clone()), &t.reg_weight),
         None => Tensor::zeros([1], &t.reg_weight.device()),
     };
-    let localization = location.clone() * cfg.location_weight
-        + dimension.clone() * cfg.dimension_weight
-        + rotation.clone() * cfg.rotation_weight;
-    let total = localization * cfg.localization_weight
-        + classification.clone() * cfg.classification_weight
-        + direction.clone() * cfg.direction_weight;
-    LossTerms {
-        total,
-        classification,
-        location,
-        dimension,
-        rotation,
-        direction,
-    }
+    combine([classification, location, dimension, rotation, direction], cfg)
 }
 
 #[cfg(test)]
