@@ -1,6 +1,8 @@
 //! `calib` files: `KEY: v v ...` lines with `%.12e` values, keys `P0 P1 P2 P3 R0_rect
 //! Tr_velo_to_cam Tr_imu_to_velo` in that order, and one extra `\n` after the last line.
-//! P2, R0_rect and Tr_velo_to_cam are required; every other key is kept and written back.
+//! P2, R0_rect and Tr_velo_to_cam are required; every other key is kept and written back. The
+//! tracking benchmark's files (`R_rect`, `Tr_velo_cam`, `Tr_imu_velo`, lines without the colon)
+//! read the same; written back, they take the object-detection names of the two required keys.
 
 use crate::io::{atomic_write, parse_finite_numbers, read_text};
 use crate::{DataError, Result};
@@ -93,7 +95,8 @@ impl Calib {
     }
 
     /// Parses a calib file held in memory; `path` names it in errors. Lines may be
-    /// `KEY: values` or `KEY values`; blank lines are skipped.
+    /// `KEY: values` or `KEY values`; blank lines are skipped. `R_rect` and `Tr_velo_cam` (the
+    /// tracking benchmark's names) stand for `R0_rect` and `Tr_velo_to_cam`.
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
         let mut entries: Vec<(String, Vec<f64>, usize)> = Vec::new();
         for (i, line) in text.lines().enumerate() {
@@ -110,9 +113,14 @@ impl Calib {
             }
             entries.push((key.to_string(), values, i + 1));
         }
-        let mut take = |key: &'static str, n: usize| -> Result<Vec<f64>> {
-            let pos = entries.iter().position(|(k, ..)| k == key);
-            let (_, v, line) = entries.remove(pos.ok_or(DataError::MissingCalibKey { path: path.into(), key })?);
+        // Each required key under its object-detection name, or the tracking benchmark's.
+        let mut take = |keys: &[&'static str], n: usize| -> Result<Vec<f64>> {
+            let pos = entries.iter().position(|(k, ..)| keys.contains(&k.as_str()));
+            let missing = DataError::MissingCalibKey {
+                path: path.into(),
+                key: keys[0],
+            };
+            let (key, v, line) = entries.remove(pos.ok_or(missing)?);
             if v.len() != n {
                 return Err(DataError::parse(
                     path,
@@ -123,9 +131,9 @@ impl Calib {
             }
             Ok(v)
         };
-        let p2 = Matrix3x4::from_row_slice(&take("P2", 12)?);
-        let r0 = Matrix3::from_row_slice(&take("R0_rect", 9)?);
-        let tr = Matrix3x4::from_row_slice(&take("Tr_velo_to_cam", 12)?);
+        let p2 = Matrix3x4::from_row_slice(&take(&["P2"], 12)?);
+        let r0 = Matrix3::from_row_slice(&take(&["R0_rect", "R_rect"], 9)?);
+        let tr = Matrix3x4::from_row_slice(&take(&["Tr_velo_to_cam", "Tr_velo_cam"], 12)?);
         let others = entries.into_iter().map(|(k, v, _)| (k, v)).collect();
         Ok(Self::new(p2, r0, tr, others))
     }
@@ -209,6 +217,32 @@ pub(crate) mod tests {
         assert_eq!(c.p2()[(0, 3)], 45.75831);
         assert_eq!(c.r0_rect()[(1, 0)], -1.012729e-2);
         assert_eq!(c.format(), SAMPLE);
+    }
+
+    #[test]
+    fn tracking_files_read_as_object_detection_ones() {
+        // The tracking devkit's layout: the rectification and LiDAR keys renamed, without colons.
+        let tracking = SAMPLE
+            .replace("R0_rect:", "R_rect")
+            .replace("Tr_velo_to_cam:", "Tr_velo_cam")
+            .replace("Tr_imu_to_velo:", "Tr_imu_velo");
+        let c = Calib::parse(&tracking, Path::new("calib/0000.txt")).unwrap();
+        let object = Calib::parse(SAMPLE, Path::new("calib.txt")).unwrap();
+        assert_eq!(c.r0_rect(), object.r0_rect());
+        assert_eq!(c.lidar_to_rect_matrix(), object.lidar_to_rect_matrix());
+        assert_eq!(c.p2(), object.p2());
+        // Written back with the object-detection names of the required keys; the IMU line is kept.
+        let written = c.format();
+        assert!(
+            written.contains("\nR0_rect: ") && written.contains("\nTr_velo_to_cam: "),
+            "{written}"
+        );
+        assert!(written.contains("\nTr_imu_velo: "), "{written}");
+        let err = Calib::parse(&tracking.replace("R_rect", "R_wrong"), Path::new("calib/0000.txt")).unwrap_err();
+        assert!(
+            matches!(err, DataError::MissingCalibKey { key: "R0_rect", .. }),
+            "{err:?}"
+        );
     }
 
     #[test]
