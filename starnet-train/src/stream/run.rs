@@ -4,6 +4,7 @@ use crate::Result;
 use crate::config::{ExperimentConfig, StreamSection};
 use crate::detector::{Budget, Detector};
 use crate::eval::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_angle, waymo_ap};
+use crate::synth::progress_bar;
 use crate::train::{EvalReport, to_kitti, waymo_objects};
 use serde::{Deserialize, Serialize};
 use starnet_data::Point;
@@ -308,7 +309,9 @@ pub fn evaluate_stream(
     let mut frames: [Vec<WaymoFrame>; 3] = Default::default();
     let mut slice_ms = Vec::new();
     let mut sweep_ms = Vec::new();
+    let bar = progress_bar(gt.frames.len() as u64, &format!("stream {n} slices"));
     for (i, (id, objects)) in gt.frames.iter().enumerate() {
+        bar.inc(1);
         let frame = dataset.load(id)?;
         let streamed = stream_sweep(m, &frame.points, n, sub_seed(m.seed, 23, i as u64));
         sweep_ms.push(streamed.slice_ms.iter().sum::<f64>());
@@ -331,6 +334,7 @@ pub fn evaluate_stream(
             });
         }
     }
+    bar.finish_and_clear();
     let budget = m.detector.budget();
     let per = centers_per_slice(budget.num_centers, n);
     let gflop = forward_gflop(&m.detector.network, per, budget.num_points);

@@ -8,6 +8,7 @@ use crate::detector::Detector;
 use crate::eval::{
     ClassAp, RangeAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_range, kitti_ap, waymo_ap,
 };
+use crate::synth::progress_bar;
 use crate::table::Table;
 use serde::{Deserialize, Serialize};
 use starnet_data::kitti::{
@@ -189,6 +190,11 @@ pub fn evaluate(
 ) -> Result<EvalReport> {
     let mut scorer = Scorer::new(&detector.classes, dataset.labels(), results);
     let batch = opts.batch_size.max(1);
+    let budget = detector.budget();
+    let bar = progress_bar(
+        dataset.ids().len() as u64,
+        &format!("eval {} x {}", budget.num_centers, budget.num_points),
+    );
     for (chunk_i, ids) in dataset.ids().chunks(batch).enumerate() {
         let loaded: Vec<_> = ids
             .iter()
@@ -204,7 +210,9 @@ pub fn evaluate(
         for (frame, decoded) in loaded.into_iter().zip(decoded) {
             scorer.add(frame, &decoded, per_frame)?;
         }
+        bar.inc(ids.len() as u64);
     }
+    bar.finish_and_clear();
     Ok(scorer.finish(detector))
 }
 

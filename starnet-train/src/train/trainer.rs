@@ -179,7 +179,8 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
             eprintln!("{}", progress_line(&record, schedule.total));
         }
         if schedule.epoch_ends(record.step) {
-            end_epoch(cfg, &run, &mut trainer, &mut log, &schedule, &val_set)?;
+            // The training bar steps aside while the evaluation draws its own.
+            bar.suspend(|| end_epoch(cfg, &run, &mut trainer, &mut log, &schedule, &val_set))?;
         }
     }
     bar.finish_and_clear();
