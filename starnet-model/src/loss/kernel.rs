@@ -6,8 +6,8 @@
 //! Rows are anchors (`B · C · A`, in the tensors' order). Each term is a weighted sum over rows
 //! divided by the batch size B, accumulated in f64 over fixed chunks of rows added in order, so
 //! it does not depend on the threads. Element-wise values are f32, with the composed path's
-//! formulas. The forward keeps the classification's slope per logit, so the backward (which
-//! only scales it) does not evaluate the focal loss again.
+//! formulas. The forward keeps every term's slope (per logit, and per regressed anchor), so the
+//! backward only scales them and keeps neither the predictions nor the targets.
 
 use super::HeadingLoss;
 use rayon::prelude::*;
@@ -108,14 +108,38 @@ impl Terms {
     }
 }
 
-/// A forward's result: the terms, and what the backward needs of the classification.
+/// A forward's result: the terms and each term's slope, all the backward needs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Forward {
     /// The five terms.
     pub terms: Terms,
-    /// `cls_weight · ∂focal/∂logit` per logit `[N, K]`: the classification term's gradient
-    /// times the batch size.
-    pub cls_slope: Vec<f32>,
+    /// Their slopes with respect to the predictions.
+    pub slopes: Slopes,
+}
+
+/// Each term's derivative with respect to the predictions, times the batch size (the anchor
+/// weights included, the terms' upstream factors not).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Slopes {
+    /// `cls_weight · ∂focal/∂logit` per logit `[N, K]`.
+    pub cls: Vec<f32>,
+    /// The regressed anchors' slopes, in row order (every other row's are 0).
+    pub regressed: Vec<RowSlope>,
+    /// Rows N.
+    pub rows: usize,
+    /// Whether the predictions have direction logits.
+    pub has_direction: bool,
+}
+
+/// One regressed anchor's slopes, times its regression weight.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowSlope {
+    /// The anchor (row).
+    pub row: usize,
+    /// Per residual: ∂(location | dimension | rotation)/∂residual, by the residual's term.
+    pub boxes: [f32; 7],
+    /// ∂direction/∂(l₁ − l₀).
+    pub direction: f32,
 }
 
 /// The gradients of a weighted sum of the terms with respect to the predictions.
@@ -194,14 +218,68 @@ fn two_bin(l: &[f32], y: f32) -> (f32, f32) {
     (ce, 1.0 / (1.0 + (-d).exp()) - y)
 }
 
-/// The five terms, and the classification's slope for [`backward`].
+/// The five terms and their slopes for [`backward`].
 ///
 /// # Shapes
 /// `N` anchors over `batch` frames; see [`Predictions`] and [`Targets`].
 pub fn forward(p: Predictions, t: Targets, cfg: &KernelConfig, batch: usize) -> Forward {
+    let (classification, cls) = classification(p, t, cfg);
+    let mut sums = [classification, 0.0, 0.0, 0.0, 0.0];
+    let mut regressed = Vec::new();
+    for i in t.regressed() {
+        let w = t.reg_weight[i];
+        let d = |j: usize| p.box_residuals[i * 7 + j] - t.residuals[i * 7 + j];
+        let mut slope = RowSlope {
+            row: i,
+            boxes: [0.0; 7],
+            direction: 0.0,
+        };
+        let mut part = [0f32; 3];
+        for j in 0..7 {
+            let (h, dh) = if j < 6 {
+                huber(d(j), cfg.huber_delta)
+            } else {
+                heading(d(6), cfg)
+            };
+            part[term_of_residual(j) - 1] += h;
+            slope.boxes[j] = w * dh;
+        }
+        for (sum, part) in sums[1..4].iter_mut().zip(part) {
+            *sum += (w * part) as f64;
+        }
+        if let Some(l) = p.dir_logits {
+            let (ce, dce) = two_bin(&l[i * 2..i * 2 + 2], t.direction[i]);
+            sums[4] += (w * ce) as f64;
+            slope.direction = w * dce;
+        }
+        regressed.push(slope);
+    }
+    let slopes = Slopes {
+        cls,
+        regressed,
+        rows: t.rows(),
+        has_direction: p.dir_logits.is_some(),
+    };
+    Forward {
+        terms: Terms::from_array(sums.map(|s| (s / batch as f64) as f32)),
+        slopes,
+    }
+}
+
+/// Which term (index in [`Terms::to_array`]) residual `j` feeds: location, dimension, rotation.
+fn term_of_residual(j: usize) -> usize {
+    match j {
+        0..3 => 1,
+        3..6 => 2,
+        _ => 3,
+    }
+}
+
+/// The classification term's weighted sum over rows (in fixed chunks) and its slope per logit.
+fn classification(p: Predictions, t: Targets, cfg: &KernelConfig) -> (f64, Vec<f32>) {
     let k = t.classes_per_row().max(1);
-    let mut cls_slope = vec![0.0; p.cls_logits.len()];
-    let partial: Vec<f64> = cls_slope
+    let mut slope = vec![0.0; p.cls_logits.len()];
+    let partial: Vec<f64> = slope
         .par_chunks_mut(CHUNK * k)
         .enumerate()
         .map(|(chunk, slope)| {
@@ -215,51 +293,24 @@ pub fn forward(p: Predictions, t: Targets, cfg: &KernelConfig, batch: usize) -> 
             sum
         })
         .collect();
-    let mut sums = [0f64; 5];
-    sums[0] = partial.iter().sum();
-    for i in t.regressed() {
-        let w = t.reg_weight[i] as f64;
-        let d = |j: usize| p.box_residuals[i * 7 + j] - t.residuals[i * 7 + j];
-        let part = |r: std::ops::Range<usize>| r.map(|j| huber(d(j), cfg.huber_delta).0).sum::<f32>();
-        sums[1] += w * part(0..3) as f64;
-        sums[2] += w * part(3..6) as f64;
-        sums[3] += w * heading(d(6), cfg).0 as f64;
-        if let Some(l) = p.dir_logits {
-            sums[4] += w * two_bin(&l[i * 2..i * 2 + 2], t.direction[i]).0 as f64;
-        }
-    }
-    Forward {
-        terms: Terms::from_array(sums.map(|s| (s / batch as f64) as f32)),
-        cls_slope,
-    }
+    (partial.iter().sum(), slope)
 }
 
 /// The gradient of `Σ upstream[term] · term` with respect to the predictions, from the
-/// forward's classification slope.
-pub fn backward(
-    p: Predictions,
-    t: Targets,
-    cfg: &KernelConfig,
-    batch: usize,
-    cls_slope: &[f32],
-    upstream: Terms,
-) -> Gradients {
+/// forward's slopes of a batch of `batch` frames.
+pub fn backward(slopes: &Slopes, batch: usize, upstream: Terms) -> Gradients {
     let g = upstream.to_array().map(|u| u / batch as f32);
-    let cls_logits = cls_slope.par_iter().with_min_len(CHUNK).map(|s| g[0] * s).collect();
-    let mut box_residuals = vec![0.0; p.box_residuals.len()];
-    let mut dir_logits = p.dir_logits.map(|l| vec![0.0; l.len()]);
-    for i in t.regressed() {
-        let w = t.reg_weight[i];
-        let d = |j: usize| p.box_residuals[i * 7 + j] - t.residuals[i * 7 + j];
-        for j in 0..6 {
-            let term = if j < 3 { g[1] } else { g[2] };
-            box_residuals[i * 7 + j] = term * w * huber(d(j), cfg.huber_delta).1;
+    let cls_logits = slopes.cls.par_iter().with_min_len(CHUNK).map(|s| g[0] * s).collect();
+    let mut box_residuals = vec![0.0; slopes.rows * 7];
+    let mut dir_logits = slopes.has_direction.then(|| vec![0.0; slopes.rows * 2]);
+    for r in &slopes.regressed {
+        for (j, s) in r.boxes.iter().enumerate() {
+            box_residuals[r.row * 7 + j] = g[term_of_residual(j)] * s;
         }
-        box_residuals[i * 7 + 6] = g[3] * w * heading(d(6), cfg).1;
-        if let (Some(l), Some(out)) = (p.dir_logits, dir_logits.as_mut()) {
-            let dd = g[4] * w * two_bin(&l[i * 2..i * 2 + 2], t.direction[i]).1;
-            out[i * 2] = -dd;
-            out[i * 2 + 1] = dd;
+        if let Some(out) = dir_logits.as_mut() {
+            let dd = g[4] * r.direction;
+            out[r.row * 2] = -dd;
+            out[r.row * 2 + 1] = dd;
         }
     }
     Gradients {

@@ -4,7 +4,7 @@
 //! the composed path.
 
 use super::LossTargets;
-use super::kernel::{self, KernelConfig, Predictions, Targets, Terms};
+use super::kernel::{self, KernelConfig, Predictions, Slopes, Targets, Terms};
 use crate::nn::ModelOutput;
 use crate::nn::fused::op::values;
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
@@ -66,15 +66,12 @@ fn terms_tensor(terms: Terms) -> FlexTensor {
     FlexTensor::from_data(TensorData::new(terms.to_array().to_vec(), vec![5]))
 }
 
-/// What the backward keeps: the inputs (the predictions are the graph's own buffers).
+/// What the backward keeps: the forward's slopes and the predictions' shapes.
 #[derive(Debug, Clone)]
 struct Saved {
-    predictions: [FlexTensor; 3],
-    has_direction: bool,
-    targets: [FlexTensor; 5],
-    cfg: KernelConfig,
+    slopes: Slopes,
     batch: usize,
-    cls_slope: Vec<f32>,
+    shapes: [Vec<usize>; 3],
 }
 
 #[derive(Debug)]
@@ -87,19 +84,9 @@ impl Backward<Flex, 3> for FusedLossBackward {
         let upstream = grads.consume::<Flex>(&ops.node);
         let upstream: [f32; 5] = values(&upstream).as_ref().try_into().expect("five terms");
         let s = ops.state;
-        let p: Vec<Cow<[f32]>> = s.predictions.iter().map(values).collect();
-        let t = s.targets.each_ref().map(values);
-        let g = kernel::backward(
-            predictions_of(&p, s.has_direction),
-            targets_of(&t),
-            &s.cfg,
-            s.batch,
-            &s.cls_slope,
-            Terms::from_array(upstream),
-        );
-        let shapes = s.predictions.each_ref().map(|t| t.layout().shape().to_vec());
+        let g = kernel::backward(&s.slopes, s.batch, Terms::from_array(upstream));
         let values = [Some(g.cls_logits), Some(g.box_residuals), g.dir_logits];
-        for ((parent, grad), shape) in ops.parents.into_iter().zip(values).zip(shapes) {
+        for ((parent, grad), shape) in ops.parents.into_iter().zip(values).zip(s.shapes) {
             if let (Some(node), Some(grad)) = (parent, grad) {
                 grads.register::<Flex>(node.id, FlexTensor::from_data(TensorData::new(grad, shape)));
             }
@@ -139,7 +126,7 @@ pub fn loss_terms(out: &ModelOutput, t: &LossTargets, cfg: &KernelConfig) -> Opt
     if !all_f32(&prims) {
         return None;
     }
-    let kernel::Forward { terms, cls_slope } = fwd(&prims);
+    let kernel::Forward { terms, slopes } = fwd(&prims);
     let terms = terms_tensor(terms);
     let guards: [_; 3] = guards.try_into().expect("three inputs");
     let out = match FusedLossBackward
@@ -148,13 +135,11 @@ pub fn loss_terms(out: &ModelOutput, t: &LossTargets, cfg: &KernelConfig) -> Opt
         .stateful()
     {
         OpsKind::Tracked(prep) => {
+            let shapes = prims.iter().map(|t| t.layout().shape().to_vec()).collect::<Vec<_>>();
             let state = Saved {
-                predictions: prims.try_into().expect("three inputs"),
-                has_direction,
-                targets,
-                cfg: *cfg,
+                slopes,
                 batch,
-                cls_slope,
+                shapes: shapes.try_into().expect("three inputs"),
             };
             prep.finish(state, terms)
         }
