@@ -166,6 +166,45 @@ fn train_then_eval_through_the_cli() {
             "{png}"
         );
     }
+    // The result files alone, scored as another detector's would be: the checkpoint's tables
+    // and eval.json, exactly (and not vacuously: there are detections).
+    let lines: usize = std::fs::read_dir(results.join("c32_p8"))
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "txt"))
+        .map(|p| std::fs::read_to_string(p).unwrap().lines().count())
+        .sum();
+    assert!(lines > 0);
+    let scored = dir.path().join("scored");
+    let o = starnet(
+        &[
+            "eval",
+            "--results",
+            results.join("c32_p8").to_str().unwrap(),
+            "--data",
+            dir.path().join("data").to_str().unwrap(),
+            "--out",
+            scored.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    let rescored = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let tables: String = rescored
+        .lines()
+        .skip(1)
+        .take_while(|l| !l.starts_with("wrote"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(
+        tables.contains("| Car | 0.7 | 3D |") && out.contains(&tables),
+        "{rescored}\n---\n{out}"
+    );
+    let read = |p: &Path| -> serde_json::Value { serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap() };
+    let (checkpoint, files) = (read(&results.join("c32_p8/eval.json")), read(&scored.join("eval.json")));
+    for key in ["frames", "classes", "waymo", "by_range"] {
+        assert_eq!(checkpoint[key], files[key], "{key}");
+    }
     // Compute is linear in the centers at a fixed point count.
     let reports: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(results.join("budget.json")).unwrap()).unwrap();

@@ -67,7 +67,7 @@ pub fn sweep(
 pub fn budget_table(reports: &[EvalReport]) -> String {
     let class = reports
         .first()
-        .and_then(|r| r.classes.first())
+        .and_then(|r| r.scores.classes.first())
         .map_or("-".into(), |c| c.class.to_string());
     let mut t = Table::new([
         "centers".to_string(),
@@ -82,10 +82,11 @@ pub fn budget_table(reports: &[EvalReport]) -> String {
     ]);
     for r in reports {
         let (three_d, bev) = r
+            .scores
             .classes
             .first()
             .map_or((0.0, 0.0), |c| (c.three_d[1].r40, c.bev[1].r40));
-        let waymo = r.waymo.first().map(|w| w.levels[0]).unwrap_or_default();
+        let waymo = r.scores.waymo.first().map(|w| w.levels[0]).unwrap_or_default();
         let centers = match r.target {
             CenterTarget::All => r.num_centers.to_string(),
             t => format!("{} ({t})", r.num_centers),
@@ -111,7 +112,7 @@ pub fn budget_plots(reports: &[EvalReport]) -> [LinePlot; 2] {
     let mut points: Vec<usize> = reports.iter().map(|r| r.num_points).collect();
     points.sort_unstable();
     points.dedup();
-    let ap = |r: &EvalReport| r.classes.first().map_or(0.0, |c| c.three_d[1].r40);
+    let ap = |r: &EvalReport| r.scores.classes.first().map_or(0.0, |c| c.three_d[1].r40);
     let curve = |p: usize, x: &dyn Fn(&EvalReport) -> f64| {
         let mut pts: Vec<(f64, f64)> = reports
             .iter()

@@ -8,15 +8,16 @@
 //! sensor (no camera frustum) and only the JSON is written.
 
 use crate::detector::Detector;
-use crate::train::{frame_seed, to_kitti};
+use crate::eval::to_kitti;
+use crate::train::frame_seed;
 use crate::{Result, TrainError};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::{Calib, Frame, ImageSize, ObjectClass, read_points, write_results};
 use std::path::{Path, PathBuf};
 
 /// One detected box.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DetectedBox {
     /// Class.
     pub class: ObjectClass,
@@ -28,7 +29,7 @@ pub struct DetectedBox {
 }
 
 /// The detections of one sweep.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SweepDetections {
     /// Sweep id (the file stem).
     pub id: String,

@@ -1,7 +1,7 @@
 //! `starnet synth`: generate the built-in simulator dataset, or print its statistics.
 
 use crate::{Result, TrainError};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressState, ProgressStyle};
 use starnet_data::sim::{SynthConfig, dataset_stats, synth_frames, synth_sequences};
 use std::path::Path;
 use std::time::Instant;
@@ -24,8 +24,11 @@ pub enum SynthJob {
 pub fn progress_bar(total: u64, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(total);
     bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {per_sec} eta {eta}")
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {rate} eta {eta}")
             .expect("valid template")
+            .with_key("rate", |s: &ProgressState, w: &mut dyn std::fmt::Write| {
+                let _ = write!(w, "{:.1}/s", s.per_sec());
+            })
             .progress_chars("=> "),
     );
     bar.set_message(what.to_string());

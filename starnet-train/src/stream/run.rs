@@ -4,8 +4,9 @@ use crate::Result;
 use crate::config::{ExperimentConfig, StreamSection};
 use crate::detector::{Budget, Detector};
 use crate::eval::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_angle, waymo_ap};
+use crate::eval::{Scores, to_kitti, waymo_objects};
 use crate::synth::progress_bar;
-use crate::train::{EvalReport, to_kitti, waymo_objects};
+use crate::train::EvalReport;
 use serde::{Deserialize, Serialize};
 use starnet_data::Point;
 use starnet_data::kitti::{KittiDataset, LabelSource};
@@ -256,16 +257,18 @@ impl StreamReport {
     /// the trainer's evaluations.
     pub fn eval_report(&self, mode: NmsMode) -> EvalReport {
         EvalReport {
-            frames: self.frames,
             num_centers: self.num_centers,
             num_points: self.num_points,
             target: CenterTarget::All,
             gflop_per_frame: self.gflop_per_slice * self.slices as f64,
             latency_ms_mean: self.sweep_ms_mean,
             latency_ms_p95: self.sweep_ms_p95,
-            classes: Vec::new(),
-            waymo: self.mode(mode).waymo.clone(),
-            by_range: Vec::new(),
+            scores: Scores {
+                frames: self.frames,
+                classes: Vec::new(),
+                waymo: self.mode(mode).waymo.clone(),
+                by_range: Vec::new(),
+            },
         }
     }
 }

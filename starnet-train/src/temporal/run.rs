@@ -4,9 +4,10 @@ use super::seeds::{PrevCenters, SeedStats, seed_distances, snap_seeds, temporal_
 use super::sequence::Sequence;
 use crate::Result;
 use crate::detector::{Budget, Detector};
+use crate::eval::Scorer;
 use crate::render::{LinePlot, Series};
 use crate::table::Table;
-use crate::train::{EvalReport, Scorer, frame_seed};
+use crate::train::{EvalReport, frame_seed};
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::Pose;
@@ -62,6 +63,7 @@ pub fn evaluate_sequences(
         .first()
         .map_or(starnet_data::kitti::LabelSource::Camera, |s| s.dataset.labels());
     let mut scorer = Scorer::new(&detector.classes, labels, None);
+    let mut latencies = Vec::new();
     let (mut corrected, mut uncorrected, mut confident) = (Vec::new(), Vec::new(), Vec::new());
     let mut i = 0;
     for seq in sequences {
@@ -95,7 +97,8 @@ pub fn evaluate_sequences(
                 );
             }
             previous = candidates;
-            scorer.add(frame, &detections, ms)?;
+            scorer.add(frame, &detections)?;
+            latencies.push(ms);
             i += 1;
         }
     }
@@ -103,7 +106,7 @@ pub fn evaluate_sequences(
         num_centers: budget.num_centers,
         prev,
         prev_centers: step.k,
-        report: scorer.finish(detector),
+        report: EvalReport::new(detector, scorer.finish(), &latencies),
         seeds: SeedStats::of(&corrected, &uncorrected, &confident),
     })
 }
@@ -233,7 +236,7 @@ pub fn temporal_table(reports: &[TemporalReport]) -> String {
             .find(|b| b.num_centers == r.num_centers && b.prev_centers == 0)
             .map(|b| b.report.headline());
         let delta = base.map_or(String::new(), |b| format!("{:+.1}", r.report.headline() - b));
-        let bev = r.report.classes.first().map_or(0.0, |c| c.bev[1].r40);
+        let bev = r.report.scores.classes.first().map_or(0.0, |c| c.bev[1].r40);
         let mut cells = vec![
             r.num_centers.to_string(),
             r.prev_centers.to_string(),

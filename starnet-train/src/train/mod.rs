@@ -46,7 +46,7 @@ pub use checkpoint::{
 pub use clip::clip_global_norm;
 pub use data::{TrainItem, ensure_data, paste_database, slices_at, train_item, train_loader};
 pub use ema::WeightEma;
-pub use evaluate::{EvalOptions, EvalReport, RANGE_BINS_MAX_M, Scorer, evaluate, frame_seed, to_kitti, waymo_objects};
+pub use evaluate::{EvalOptions, EvalReport, evaluate, frame_seed};
 pub use log::{StepRecord, TrainLog, progress_line};
 pub use schedule::{Schedule, lr_multiplier};
 pub use step::{StepLosses, Trainer};

@@ -2,14 +2,16 @@
 
 use anyhow::Context;
 use clap::Args;
+use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::CenterTarget;
 use starnet_train::budget::{budget_grid, budget_table, sweep};
 use starnet_train::detector::Budget;
+use starnet_train::eval::{ResultFormat, score_results, write_scores};
 use starnet_train::stream::{StreamGroundTruth, StreamModel, stream_runs, stream_tables, write_stream};
 use starnet_train::temporal::{PrevCenters, open_sequences, temporal_sweep, temporal_table, write_temporal};
 use starnet_train::train::{EvalOptions, TrainOptions, run_dir_for, train};
 use starnet_train::trained::{TrainedModel, run_label};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -59,17 +61,35 @@ impl Train {
     }
 }
 
-/// Evaluate a checkpoint: KITTI AP (3D, BEV, 2D, AOS; R40 and R11) on a split, KITTI result
-/// files, a JSON summary and per-frame latency, at one or more center/point budgets.
+/// Evaluate a checkpoint: KITTI AP (3D, BEV, 2D, AOS; R40 and R11) and Waymo-style AP/APH on
+/// a split, KITTI result files, a JSON summary and per-frame latency, at one or more
+/// center/point budgets. Or score any detector's result folder (--results) the same way.
 #[derive(Args)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["checkpoint", "results"])))]
 pub struct Eval {
     /// A checkpoint folder (runs/NAME/checkpoints/best) or its model.bpk.
     #[arg(long)]
-    checkpoint: PathBuf,
+    checkpoint: Option<PathBuf>,
+    /// Score this folder of result files instead of a checkpoint (with --data): `{id}.txt` in
+    /// KITTI's result format (camera frame) or `{id}.json` from `starnet detect` (LiDAR
+    /// frame), one per frame of the split.
+    #[arg(long, conflicts_with_all = ["checkpoint", "config", "centers", "points", "sets", "sequences"])]
+    results: Option<PathBuf>,
+    /// With --results: `kitti` or `detect` (default: whichever the split's first frame has).
+    #[arg(long, requires = "results")]
+    format: Option<ResultFormat>,
+    /// With --results: the classes to score (default: Car, Pedestrian and Cyclist, those with
+    /// a detection).
+    #[arg(long, requires = "results", value_delimiter = ',', value_parser = parse_class)]
+    classes: Vec<ObjectClass>,
+    /// With --results: the labels to score against, `label_2` (camera view) or `label_360`
+    /// (the simulator's all-around labels).
+    #[arg(long, requires = "results", default_value = "label_2", value_parser = parse_labels)]
+    labels: LabelSource,
     /// The run's config (default: the config.toml of the run holding the checkpoint).
     #[arg(long)]
     config: Option<PathBuf>,
-    /// KITTI root (default: the config's data root).
+    /// KITTI root (default: the config's data root; needed with --results).
     #[arg(long)]
     data: Option<PathBuf>,
     /// Split to evaluate.
@@ -90,7 +110,8 @@ pub struct Eval {
     sets: Vec<String>,
     /// Where to write, per budget, the result files and eval.json (in c{C}_p{P}/), and for a
     /// sweep budget.md, budget.json and the plots budget_gflop.png and budget_latency.png;
-    /// with --sequences, temporal.md, temporal.json and temporal_ap.png.
+    /// with --sequences, temporal.md, temporal.json and temporal_ap.png; with --results,
+    /// eval.json.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Evaluate the sequences under ROOT/sequences/ (from `starnet synth --sequences`) frame
@@ -103,9 +124,44 @@ pub struct Eval {
     prev_centers: Vec<PrevCenters>,
 }
 
+fn parse_class(s: &str) -> Result<ObjectClass, String> {
+    ObjectClass::from_name(s)
+        .ok_or_else(|| format!("unknown class `{s}` (KITTI's names: Car, Pedestrian, Cyclist, ...)"))
+}
+
+fn parse_labels(s: &str) -> Result<LabelSource, String> {
+    serde_json::from_value(serde_json::Value::String(s.into()))
+        .map_err(|_| format!("unknown labels `{s}` (expected `label_2` or `label_360`)"))
+}
+
 impl Eval {
     pub fn run(self) -> anyhow::Result<()> {
-        let mut trained = TrainedModel::load(&self.checkpoint, self.config.as_deref(), &self.sets)?;
+        match (&self.checkpoint, &self.results) {
+            (Some(checkpoint), _) => self.checkpoint(checkpoint),
+            (None, Some(results)) => self.results(results),
+            (None, None) => unreachable!("clap requires --checkpoint or --results"),
+        }
+    }
+
+    fn results(&self, results: &Path) -> anyhow::Result<()> {
+        let root = self
+            .data
+            .as_deref()
+            .context("--results needs --data ROOT (the KITTI root it scores against)")?;
+        let ds = KittiDataset::open(root, Some(&self.split))?.with_labels(self.labels);
+        let classes = (!self.classes.is_empty()).then_some(self.classes.as_slice());
+        let scores = score_results(&ds, results, self.format, classes)?;
+        println!("{} frames, results from {}", scores.frames, results.display());
+        print!("{scores}");
+        if let Some(out) = &self.out {
+            write_scores(out, &scores)?;
+            println!("wrote {}", out.join("eval.json").display());
+        }
+        Ok(())
+    }
+
+    fn checkpoint(&self, checkpoint: &Path) -> anyhow::Result<()> {
+        let mut trained = TrainedModel::load(checkpoint, self.config.as_deref(), &self.sets)?;
         if let Some(d) = &self.data {
             trained.config.data.root = d.clone();
         }

@@ -1,0 +1,209 @@
+//! Scoring a folder of result files, from this detector or any other, against a KITTI split:
+//! `{id}.txt` in KITTI's result format (camera frame, as the devkit reads them), or `{id}.json`
+//! as `starnet detect` writes them (LiDAR frame). As the devkit does, every frame of the split
+//! needs its file (an empty one for a frame without detections).
+
+use super::{Scorer, Scores};
+use crate::detect::SweepDetections;
+use crate::synth::progress_bar;
+use crate::{Result, TrainError};
+use starnet_data::DataError;
+use starnet_data::geometry::Box3d;
+use starnet_data::io::atomic_write;
+use starnet_data::kitti::{KittiDataset, KittiObject, LabelSource, ObjectClass, read_labels};
+use starnet_model::nms::Detection;
+use std::path::{Path, PathBuf};
+
+/// What a result folder holds per frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResultFormat {
+    /// `{id}.txt`: KITTI result lines (camera frame, with a score).
+    Kitti,
+    /// `{id}.json`: `starnet detect`'s [`SweepDetections`] (LiDAR frame).
+    Detect,
+}
+
+impl ResultFormat {
+    /// The file extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Self::Kitti => "txt",
+            Self::Detect => "json",
+        }
+    }
+
+    /// The format of `dir`: the one whose file for frame `id` exists (KITTI first).
+    pub fn of_folder(dir: &Path, id: &str) -> Result<Self> {
+        [Self::Kitti, Self::Detect]
+            .into_iter()
+            .find(|f| f.file(dir, id).is_file())
+            .ok_or_else(|| TrainError::NoInput {
+                dir: dir.to_path_buf(),
+                what: format!("result file for frame {id} ({id}.txt or {id}.json)"),
+            })
+    }
+
+    fn file(self, dir: &Path, id: &str) -> PathBuf {
+        dir.join(format!("{id}.{}", self.extension()))
+    }
+}
+
+impl std::str::FromStr for ResultFormat {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "kitti" => Ok(Self::Kitti),
+            "detect" => Ok(Self::Detect),
+            _ => Err(format!("unknown result format `{s}` (expected `kitti` or `detect`)")),
+        }
+    }
+}
+
+/// The detections of one frame as a result folder holds them.
+enum FrameResults {
+    Kitti(Vec<KittiObject>),
+    Detect(SweepDetections),
+}
+
+impl FrameResults {
+    fn read(format: ResultFormat, dir: &Path, id: &str) -> Result<Self> {
+        let path = format.file(dir, id);
+        if !path.is_file() {
+            return Err(DataError::MissingFile {
+                frame: id.to_string(),
+                path,
+            }
+            .into());
+        }
+        match format {
+            ResultFormat::Kitti => Ok(Self::Kitti(read_scored(&path)?)),
+            ResultFormat::Detect => Ok(Self::Detect(read_detect_json(&path, id)?)),
+        }
+    }
+
+    fn classes(&self) -> Vec<ObjectClass> {
+        match self {
+            Self::Kitti(objects) => objects.iter().map(|o| o.class).collect(),
+            Self::Detect(sweep) => sweep.detections.iter().map(|d| d.class).collect(),
+        }
+    }
+}
+
+/// A KITTI result file, every line with its score.
+fn read_scored(path: &Path) -> Result<Vec<KittiObject>> {
+    let objects = read_labels(path)?;
+    match objects.iter().position(|o| o.score.is_none()) {
+        Some(i) => Err(DataError::Parse {
+            path: path.to_path_buf(),
+            line: i + 1,
+            field: "score".into(),
+            message: "a result line needs a 16th field, the detection's score".into(),
+        }
+        .into()),
+        None => Ok(objects),
+    }
+}
+
+/// Reads `starnet detect`'s `{id}.json`; `id` is the frame it must describe.
+pub fn read_detect_json(path: &Path, id: &str) -> Result<SweepDetections> {
+    let text = std::fs::read_to_string(path).map_err(|e| DataError::io(path, e))?;
+    let sweep: SweepDetections = serde_json::from_str(&text).map_err(|e| DataError::Parse {
+        path: path.to_path_buf(),
+        line: e.line(),
+        field: "detections".into(),
+        message: e.to_string(),
+    })?;
+    if sweep.id != id {
+        return Err(DataError::Parse {
+            path: path.to_path_buf(),
+            line: 1,
+            field: "id".into(),
+            message: format!("the file describes frame {} but is named for frame {id}", sweep.id),
+        }
+        .into());
+    }
+    Ok(sweep)
+}
+
+/// The classes KITTI evaluates (Car, Pedestrian, Cyclist) that have a detection somewhere.
+fn detected_classes(frames: &[FrameResults]) -> Vec<ObjectClass> {
+    let found: Vec<ObjectClass> = frames.iter().flat_map(FrameResults::classes).collect();
+    [ObjectClass::Car, ObjectClass::Pedestrian, ObjectClass::Cyclist]
+        .into_iter()
+        .filter(|c| found.contains(c))
+        .collect()
+}
+
+/// Scores the result files in `dir` against `dataset` (each frame's labels, calibration and
+/// scan): the same metrics and tables as a checkpoint's evaluation. `format` defaults to the
+/// one found for the split's first frame; `classes` to the KITTI classes with a detection, in
+/// the devkit's order. Detections of other classes are left out.
+pub fn score_results(
+    dataset: &KittiDataset,
+    dir: &Path,
+    format: Option<ResultFormat>,
+    classes: Option<&[ObjectClass]>,
+) -> Result<Scores> {
+    let ids = dataset.ids();
+    let first = ids.first().ok_or_else(|| TrainError::NoInput {
+        dir: dataset.root().to_path_buf(),
+        what: "frames in the split".into(),
+    })?;
+    let format = match format {
+        Some(f) => f,
+        None => ResultFormat::of_folder(dir, first)?,
+    };
+    if format == ResultFormat::Kitti && dataset.labels() != LabelSource::Camera {
+        return Err(TrainError::InvalidArgument {
+            name: dir.display().to_string(),
+            message: "KITTI result files hold camera-view boxes only; score 360° labels from `detect` JSON files"
+                .into(),
+        });
+    }
+    let results = ids
+        .iter()
+        .map(|id| FrameResults::read(format, dir, id))
+        .collect::<Result<Vec<_>>>()?;
+    let classes = classes.map_or_else(|| detected_classes(&results), <[_]>::to_vec);
+    if classes.is_empty() {
+        return Err(TrainError::NoInput {
+            dir: dir.to_path_buf(),
+            what: "Car, Pedestrian or Cyclist detection (name the classes to score)".into(),
+        });
+    }
+    let mut scorer = Scorer::new(&classes, dataset.labels(), None);
+    let bar = progress_bar(ids.len() as u64, "score");
+    for (id, result) in ids.iter().zip(results) {
+        let frame = dataset.load(id)?;
+        match result {
+            FrameResults::Kitti(objects) => scorer.add_results(frame, &objects)?,
+            FrameResults::Detect(sweep) => scorer.add(frame, &detections_of(&sweep, &classes))?,
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(scorer.finish())
+}
+
+/// A sweep's boxes of `classes` as detections whose class indexes `classes`.
+fn detections_of(sweep: &SweepDetections, classes: &[ObjectClass]) -> Vec<Detection> {
+    sweep
+        .detections
+        .iter()
+        .filter_map(|d| {
+            let class = classes.iter().position(|&c| c == d.class)?;
+            Some(Detection {
+                b: Box3d::from_array(d.b),
+                class,
+                score: d.score,
+            })
+        })
+        .collect()
+}
+
+/// Writes `scores` as `dir/eval.json` (the fields a checkpoint's `eval.json` has beside its
+/// budget).
+pub fn write_scores(dir: &Path, scores: &Scores) -> Result<()> {
+    let json = serde_json::to_string_pretty(scores).expect("scores serialise");
+    Ok(atomic_write(&dir.join("eval.json"), json.as_bytes())?)
+}
