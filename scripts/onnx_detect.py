@@ -9,6 +9,18 @@ contract in `model.json`.
     python3 scripts/onnx_detect.py --export export/ --input ROOT/training/velodyne/000001.bin \
         --calib ROOT/training/calib/000001.txt --out detections/
 
+The streaming LSTM variant's `model.onnx` is one slice step with the LSTM state as inputs and
+outputs; `--stream [N]` cuts the sweep into N azimuth slices (model.json `streaming`) and runs
+them in order, the state carried from zeros, then NMS over the whole sweep's boxes:
+
+    python3 scripts/onnx_detect.py --export export/ --stream 4 --input ... --calib ... --out ...
+
+`--golden` checks the export instead: it replays `golden.safetensors` (and, for the streaming
+variant, the whole sweep of `golden_stream.safetensors`, slice by slice with the state carried)
+through onnxruntime and fails unless every output is within 1e-4 of Burn's.
+
+    python3 scripts/onnx_detect.py --export export/ --golden
+
 Writes `{id}.txt` in KITTI's result format (boxes whose projection reaches image 2).
 Centers are sampled with farthest point sampling in bird's-eye view from a seeded random start,
 as the Rust pipeline does; the exact centers (and so the boxes) differ from `starnet detect`'s,
@@ -211,36 +223,155 @@ def kitti_line(name, b, score, calib):
             f"{h:.2f} {w:.2f} {l:.2f} {x:.2f} {y:.2f} {z:.2f} {ry:.2f} {score:.4f}")
 
 
+def read_safetensors(path):
+    """Every f32 tensor of a safetensors file, by name (the format: u64 header length, JSON
+    header, raw little-endian data)."""
+    raw = open(path, "rb").read()
+    n = int.from_bytes(raw[:8], "little")
+    header = json.loads(raw[8:8 + n])
+    body = raw[8 + n:]
+    out = {}
+    for name, t in header.items():
+        if name == "__metadata__":
+            continue
+        lo, hi = t["data_offsets"]
+        out[name] = np.frombuffer(body[lo:hi], "<f4").reshape(t["shape"])
+    return out
+
+
+def check_golden(export):
+    """Replays the golden files through model.onnx; returns the worst |difference|."""
+    spec = json.load(open(os.path.join(export, "model.json")))
+    session = ort.InferenceSession(os.path.join(export, "model.onnx"))
+    names = [o.name for o in session.get_outputs()]
+    streaming = spec.get("streaming")
+    worst = 0.0
+    if streaming:
+        golden = read_safetensors(os.path.join(export, "golden_stream.safetensors"))
+        h = streaming["lstm_hidden"]
+        state = {"state_h": np.zeros((1, h), np.float32), "state_c": np.zeros((1, h), np.float32)}
+        s = 0
+        while f"slice{s}.points" in golden:
+            feed = {k: golden[f"slice{s}.{k}"] for k in ("points", "mask", "center_valid")}
+            got = dict(zip(names, session.run(None, {**feed, **state})))
+            for name in names:
+                want = golden[f"slice{s}.{name.removesuffix('_out')}"]
+                diff = float(np.abs(got[name] - want).max())
+                print(f"slice {s} {name}: max |diff| {diff:.2e}")
+                worst = max(worst, diff)
+            state = {"state_h": got["state_h_out"], "state_c": got["state_c_out"]}
+            s += 1
+    else:
+        golden = read_safetensors(os.path.join(export, "golden.safetensors"))
+        got = dict(zip(names, session.run(None, {"points": golden["points"], "mask": golden["mask"]})))
+        for name in names:
+            diff = float(np.abs(got[name] - golden[name]).max())
+            print(f"{name}: max |diff| {diff:.2e}")
+            worst = max(worst, diff)
+    return worst
+
+
+def sample_and_gather(points, pool, n, spec, rng, readable=None):
+    """FPS centers from the pool's points and their neighbourhoods in `readable` (default:
+    `points`)."""
+    chosen = pool[fps_bev(points[pool, :2].astype(np.float64), n, rng)]
+    centers = points[chosen, :3].astype(np.float32)
+    if spec["center_z"] == "zero":
+        centers[:, 2] = 0.0
+    feats, mask = gather(points if readable is None else readable, centers, spec["num_points"],
+                         spec["radius"], spec.get("gather_metric", "ball"), rng)
+    return centers, feats, mask
+
+
+def boxes_and_scores(spec, centers, outputs):
+    """Decoded boxes [N, 7] and sigmoid scores [N, K] of one network call."""
+    logits, residuals = outputs[0], outputs[1]
+    anchors = np.concatenate([anchors_around(c, spec["anchors"]) for c in centers])
+    boxes = decode(residuals.reshape(-1, 7).astype(np.float64), anchors)
+    if spec.get("direction"):
+        boxes[:, 6] = with_direction(boxes[:, 6], outputs[2].reshape(-1, 2), spec["direction"]["offset"])
+    return boxes, 1.0 / (1.0 + np.exp(-logits.reshape(len(anchors), -1)))
+
+
+def slice_of(points, n, slicing):
+    """Each point's slice of n, as starnet_data::sampling::SliceConfig::slice_of."""
+    az = np.degrees(np.arctan2(points[:, 1], points[:, 0]))
+    start = slicing["start_azimuth_deg"]
+    along = (start - az) if slicing["clockwise"] else (az - start)
+    return np.minimum((np.mod(along, 360.0) / (360.0 / n)).astype(int), n - 1)
+
+
+def detect_streaming(session, spec, points, n, rng):
+    """The sweep as n slices in order through the slice step, the LSTM state carried."""
+    streaming = spec["streaming"]
+    h = streaming["lstm_hidden"]
+    state = {"state_h": np.zeros((1, h), np.float32), "state_c": np.zeros((1, h), np.float32)}
+    per = max(1, -(-spec["num_centers"] // n))
+    pool_cfg = dict(spec["center_pool"], camera_frustum=False)  # a slice's pool has no frustum
+    which = slice_of(points, n, streaming["slicing"])
+    all_boxes, all_scores, used = [], [], 0
+    for s in range(n):
+        current = points[which == s]
+        readable = current
+        if streaming["slicing"]["gather_previous"] and s > 0:
+            readable = np.concatenate([points[which == s - 1], current])
+        pool = center_pool(current, pool_cfg, None)
+        if len(pool) == 0:
+            # No candidates: one padding center, invalid, so the LSTM sees a zero input.
+            centers = np.zeros((1, 3), np.float32)
+            feats = np.zeros((1, spec["num_points"], 4), np.float32)
+            mask = np.zeros((1, spec["num_points"]), np.float32)
+            valid = np.zeros(1, np.float32)
+        else:
+            centers, feats, mask = sample_and_gather(current, pool, per, spec, rng, readable)
+            valid = np.ones(len(centers), np.float32)
+        outputs = session.run(None, {"points": feats, "mask": mask, "center_valid": valid, **state})
+        state = {"state_h": outputs[-2], "state_c": outputs[-1]}
+        if valid.any():
+            boxes, scores = boxes_and_scores(spec, centers, outputs)
+            all_boxes.append(boxes)
+            all_scores.append(scores)
+            used += len(centers)
+    k = len(spec["classes"])
+    boxes = np.concatenate(all_boxes) if all_boxes else np.zeros((0, 7))
+    scores = np.concatenate(all_scores) if all_scores else np.zeros((0, k))
+    return boxes, scores, used
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--export", required=True, help="folder written by `starnet export`")
-    ap.add_argument("--input", required=True, help="a velodyne .bin file")
-    ap.add_argument("--calib", required=True, help="its KITTI calib file")
-    ap.add_argument("--out", required=True)
+    ap.add_argument("--golden", action="store_true", help="check the export's golden files and exit")
+    ap.add_argument("--input", help="a velodyne .bin file")
+    ap.add_argument("--calib", help="its KITTI calib file")
+    ap.add_argument("--out")
+    ap.add_argument("--stream", type=int, nargs="?", const=0, metavar="N",
+                    help="streaming LSTM export: N azimuth slices (default: model.json's eval_slices)")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
+    if args.golden:
+        worst = check_golden(args.export)
+        print(f"worst |diff| {worst:.2e}: {'ok' if worst <= 1e-4 else 'FAILED'}")
+        raise SystemExit(0 if worst <= 1e-4 else 1)
+    if not (args.input and args.calib and args.out):
+        ap.error("--input, --calib and --out are needed to detect")
 
     spec = json.load(open(os.path.join(args.export, "model.json")))
     session = ort.InferenceSession(os.path.join(args.export, "model.onnx"))
     calib = read_calib(args.calib)
     rng = np.random.default_rng(args.seed)
     points = np.fromfile(args.input, np.float32).reshape(-1, 4)
+    if (args.stream is not None) != bool(spec.get("streaming")):
+        ap.error("--stream goes with a streaming LSTM export, and such an export needs it")
 
-    pool = center_pool(points, spec["center_pool"], calib)
-    chosen = pool[fps_bev(points[pool, :2].astype(np.float64), spec["num_centers"], rng)]
-    centers = points[chosen, :3].astype(np.float32)
-    if spec["center_z"] == "zero":
-        centers[:, 2] = 0.0
-    feats, mask = gather(points, centers, spec["num_points"], spec["radius"],
-                         spec.get("gather_metric", "ball"), rng)
-    outputs = session.run(None, {"points": feats, "mask": mask})
-    logits, residuals = outputs[0], outputs[1]
-
-    anchors = np.concatenate([anchors_around(c, spec["anchors"]) for c in centers])
-    boxes = decode(residuals.reshape(-1, 7).astype(np.float64), anchors)
-    if spec.get("direction"):
-        boxes[:, 6] = with_direction(boxes[:, 6], outputs[2].reshape(-1, 2), spec["direction"]["offset"])
-    scores = 1.0 / (1.0 + np.exp(-logits.reshape(len(anchors), -1)))
+    if args.stream is not None:
+        n = args.stream or spec["streaming"]["eval_slices"]
+        boxes, scores, num_centers = detect_streaming(session, spec, points, n, rng)
+    else:
+        pool = center_pool(points, spec["center_pool"], calib)
+        centers, feats, mask = sample_and_gather(points, pool, spec["num_centers"], spec, rng)
+        boxes, scores = boxes_and_scores(spec, centers, session.run(None, {"points": feats, "mask": mask}))
+        num_centers = len(centers)
     lines = []
     for k, name in enumerate(spec["classes"]):
         kept = nms(boxes, scores[:, k], spec["nms_iou"][k], spec["nms_score"][k], spec["max_boxes"])
@@ -256,7 +387,7 @@ def main():
     stem = os.path.splitext(os.path.basename(args.input))[0]
     with open(os.path.join(args.out, stem + ".txt"), "w") as f:
         f.write("".join(line + "\n" for line in lines))
-    print(f"{stem}: {len(points)} points, {len(centers)} centers, {len(lines)} boxes")
+    print(f"{stem}: {len(points)} points, {num_centers} centers, {len(lines)} boxes")
 
 
 if __name__ == "__main__":

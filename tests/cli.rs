@@ -62,14 +62,19 @@ fn inspect_reports_points_and_labels() {
 fn render_draws_ground_truth_and_predictions() {
     let root = sample_root();
     let dir = tempfile::tempdir().unwrap();
-    // Predictions: the frame's own labels written as a result file.
+    // Predictions: the frame's own labels, moved 2 m to the side (so they do not cover the
+    // ground truth), written as a result file.
     let results = dir.path().join("results");
     std::fs::create_dir_all(&results).unwrap();
     let labels = std::fs::read_to_string(root.join("training/label_2/000001.txt")).unwrap();
     let with_scores: String = labels
         .lines()
         .filter(|l| !l.starts_with("DontCare"))
-        .map(|l| format!("{l} 0.90\n"))
+        .map(|l| {
+            let mut f: Vec<String> = l.split(' ').map(String::from).collect();
+            f[11] = format!("{:.2}", f[11].parse::<f32>().unwrap() + 2.0);
+            format!("{} 0.90\n", f.join(" "))
+        })
         .collect();
     std::fs::write(results.join("000001.txt"), with_scores).unwrap();
     let out = dir.path().join("bev.png");
@@ -218,7 +223,7 @@ fn prepare_coverage_and_augmented_render_on_simulated_data() {
         rows.iter().all(|r| r.len() == 3 && r.windows(2).all(|w| w[0] <= w[1])),
         "coverage grows with centers: {table}"
     );
-    assert_eq!(png_pixels(&plot).0, 900);
+    assert_eq!(png_pixels(&plot).0, 960);
 
     let png = dir.path().join("aug.png");
     let args = [

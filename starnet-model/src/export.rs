@@ -226,13 +226,13 @@ impl ModuleMapper for Load<'_> {
             }
             match tensors.get(&name) {
                 Some(found) if found.shape == want => {
-                    let loaded = Tensor::<1>::from_floats(found.data.as_slice(), &t.device());
-                    let loaded: Tensor<D> = loaded.reshape(Shape::from(want.clone()));
-                    if linear_weight && D == 2 {
-                        loaded.swap_dims(0, 1)
-                    } else {
-                        loaded
-                    }
+                    // Back to Burn's `[in, out]` by copying, not as a transposed view: a strided
+                    // weight would take another matmul path and round differently.
+                    let values = match linear_weight && D == 2 {
+                        true => transpose(&found.data, want[0], want[1]),
+                        false => found.data.clone(),
+                    };
+                    Tensor::<1>::from_floats(values.as_slice(), &t.device()).reshape(t.shape())
                 }
                 Some(found) => {
                     error = Some(ExportError::Tensor {
@@ -255,6 +255,17 @@ impl ModuleMapper for Load<'_> {
         }
         param
     }
+}
+
+/// The `[cols, rows]` transpose of a row-major `[rows, cols]` matrix.
+pub(crate) fn transpose(data: &[f32], rows: usize, cols: usize) -> Vec<f32> {
+    let mut out = vec![0.0; data.len()];
+    for r in 0..rows {
+        for c in 0..cols {
+            out[c * rows + r] = data[r * cols + c];
+        }
+    }
+    out
 }
 
 /// Loads named tensors (as [`named_tensors`] produces them) into `model`.

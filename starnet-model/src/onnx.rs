@@ -4,14 +4,20 @@
 //! (`model.json` is their contract).
 //!
 //! - inputs: `points [C, P, F]` (f32; padded slots zero), `mask [C, P]` (1 real, 0 padded);
-//! - outputs: `cls_logits [C, A, K]`, `box_residuals [C, A, 7]`;
+//! - outputs: `cls_logits [C, A, K]`, `box_residuals [C, A, 7]` (and `dir_logits [C, A, 2]`
+//!   with the direction classifier);
 //! - C and P are dynamic (`dim_param` "C" and "P").
+//!
+//! The streaming LSTM variant's graph is one slice step: it also takes `center_valid [C]` (1
+//! real, 0 a repeat padding a small slice pool) and the state after the sweep's earlier slices,
+//! `state_h [1, H]` and `state_c [1, H]` (zeros at a sweep's first slice), and also returns the
+//! state after this slice, `state_h_out` and `state_c_out`: the host loops over the slices.
 //!
 //! The graph is the evaluation-mode forward of [`StarNet`]: each masked BatchNorm is folded
 //! into a per-channel scale and shift (`x·s + t`, `s = γ/√(σ² + ε)`, `t = β − μ·s`) followed
-//! by the mask, every center is taken as valid.
+//! by the mask (the projector's by `center_valid`, all ones outside the streaming variant).
 
-use crate::export::{NamedTensor, named_tensors};
+use crate::export::{NamedTensor, named_tensors, transpose};
 use crate::nn::{MaskedBatchNormConfig, StarNet, StarNetConfig};
 use std::collections::BTreeMap;
 
@@ -176,13 +182,7 @@ fn value_info(name: &str, dims: &[Result<usize, &str>]) -> Pb {
 /// `[out, in]` (PyTorch layout) → `[in, out]` values, for `x · W`.
 fn transposed(t: &NamedTensor) -> (Vec<usize>, Vec<f32>) {
     let (o, i) = (t.shape[0], t.shape[1]);
-    let mut v = vec![0.0; o * i];
-    for r in 0..o {
-        for c in 0..i {
-            v[c * o + r] = t.data[r * i + c];
-        }
-    }
-    (vec![i, o], v)
+    (vec![i, o], transpose(&t.data, o, i))
 }
 
 struct Weights {
@@ -240,8 +240,8 @@ impl Weights {
 }
 
 /// The ONNX model (serialized `ModelProto`) of `model`, whose config is `cfg`: the per-center
-/// network (featurizer, projector, heads). The streaming LSTM is not part of the graph, so
-/// callers refuse models that have one ([`StarNet::has_lstm`]).
+/// network (featurizer, projector, heads) and, for the streaming variant, the LSTM's step over
+/// one slice with its state as inputs and outputs.
 pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     let w = Weights {
         by_name: named_tensors(model).into_iter().map(|t| (t.name.clone(), t)).collect(),
@@ -288,8 +288,16 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     let refs: Vec<&str> = readout.iter().map(String::as_str).collect();
     let cell = g.op("Concat", &refs, &[("axis", Attr::Int(2))]); // [C, 1, cell]
     let cell_shape = g.ints("cell_shape", &[-1, cfg.featurizer.cell_dim() as i64]);
-    let cell = g.op("Reshape", &[&cell, &cell_shape], &[]); // [C, cell]
-    let x = w.batch_norm(&mut g, &cell, "proj_bn", None);
+    let mut cell = g.op("Reshape", &[&cell, &cell_shape], &[]); // [C, cell]
+    // The streaming variant's slices mark repeated centers; the projector's BatchNorm zeroes
+    // their rows, as Burn's masked BatchNorm does.
+    let mut valid = None;
+    if cfg.lstm_hidden.is_some() {
+        let v = g.op("Unsqueeze", &["center_valid", &axis1], &[]); // [C, 1]
+        cell = lstm_step(&w, &mut g, &cell, &v);
+        valid = Some(v);
+    }
+    let x = w.batch_norm(&mut g, &cell, "proj_bn", valid.as_deref());
     let shared_size = cfg.shared_size.then(|| w.linear(&mut g, &x, "size_head")); // [C, R·Pr·3]
     let x = w.linear(&mut g, &x, "proj");
     let x = g.op("Relu", &[&x], &[]); // [C, G²·D]
@@ -321,10 +329,19 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     }
     graph.msg(11, &value_info("points", &[Err("C"), Err("P"), Ok(f)]));
     graph.msg(11, &value_info("mask", &[Err("C"), Err("P")]));
+    if let Some(h) = cfg.lstm_hidden {
+        graph.msg(11, &value_info("center_valid", &[Err("C")]));
+        graph.msg(11, &value_info("state_h", &[Ok(1), Ok(h)]));
+        graph.msg(11, &value_info("state_c", &[Ok(1), Ok(h)]));
+    }
     graph.msg(12, &value_info("cls_logits", &[Err("C"), Ok(a), Ok(k)]));
     graph.msg(12, &value_info("box_residuals", &[Err("C"), Ok(a), Ok(7)]));
     if cfg.direction_classifier {
         graph.msg(12, &value_info("dir_logits", &[Err("C"), Ok(a), Ok(2)]));
+    }
+    if let Some(h) = cfg.lstm_hidden {
+        graph.msg(12, &value_info("state_h_out", &[Ok(1), Ok(h)]));
+        graph.msg(12, &value_info("state_c_out", &[Ok(1), Ok(h)]));
     }
     let mut opset = Pb::default();
     opset.str(1, "");
@@ -336,6 +353,44 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     model_pb.msg(7, &graph);
     model_pb.msg(8, &opset);
     model_pb.0
+}
+
+/// The streaming LSTM's step over one slice, as `SliceLstm::forward` with one slice: the mean
+/// of the valid centers' cells drives one LSTM step (Burn's gates: input, forget and output
+/// sigmoid, cell tanh; `c' = f·c + i·g`, `h' = o·tanh(c')`) from `state_h` / `state_c`, and its
+/// output, projected back to the cell width, is added to every center's cell. Writes
+/// `state_h_out` and `state_c_out`.
+///
+/// # Shapes
+/// - `cell`: `[C, D]`; `valid` `[C, 1]`; state `[1, H]`
+/// - output: `[C, D]`
+fn lstm_step(w: &Weights, g: &mut Graph, cell: &str, valid: &str) -> String {
+    let axis0 = g.ints("axis0", &[0]);
+    let one = g.floats("one", &[1], &[1.0]);
+    let keep = [("keepdims", Attr::Int(1))];
+    let masked = g.op("Mul", &[cell, valid], &[]);
+    let sum = g.op("ReduceSum", &[&masked, &axis0], &keep); // [1, D]
+    let count = g.op("ReduceSum", &[valid, &axis0], &keep); // [1, 1]
+    let count = g.op("Max", &[&count, &one], &[]); // a slice without centers: a zero input
+    let mean = g.op("Div", &[&sum, &count], &[]);
+    let mut gate = |name: &str, activation: &str| {
+        let p = format!("lstm.lstm.{name}");
+        let x = w.linear(g, &mean, &format!("{p}.input_transform"));
+        let h = w.linear(g, "state_h", &format!("{p}.hidden_transform"));
+        let z = g.op("Add", &[&x, &h], &[]);
+        g.op(activation, &[&z], &[])
+    };
+    let i = gate("input_gate", "Sigmoid");
+    let f = gate("forget_gate", "Sigmoid");
+    let o = gate("output_gate", "Sigmoid");
+    let c = gate("cell_gate", "Tanh");
+    let kept = g.op("Mul", &[&f, "state_c"], &[]);
+    let added = g.op("Mul", &[&i, &c], &[]);
+    g.op_into("Add", &[&kept, &added], &[], "state_c_out");
+    let squashed = g.op("Tanh", &["state_c_out"], &[]);
+    g.op_into("Mul", &[&o, &squashed], &[], "state_h_out");
+    let context = w.linear(g, "state_h_out", "lstm.out"); // [1, D]
+    g.op("Add", &[cell, &context], &[])
 }
 
 /// The per-offset residuals `reg` `[C·G², R·Pr·7]` with their size residuals (3..6) replaced by

@@ -106,3 +106,105 @@ fn check_budgets(cfg: &StarNetConfig) {
         }
     }
 }
+
+/// Slice `s`'s input: `c` centers of `p` points (the last quarter padded), and on odd slices
+/// the last three centers marked as repeats (invalid), as a small slice pool is padded.
+fn slice_input(s: usize, c: usize, p: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let mut pts = Vec::with_capacity(c * p * 4);
+    let mut mask = Vec::with_capacity(c * p);
+    for i in 0..c * p {
+        let on = i % p < p - p / 4;
+        mask.push(if on { 1.0f32 } else { 0.0 });
+        for f in 0..4 {
+            let v = ((i * 7 + f * 13 + s * 5) % 17) as f32 / 8.0 - 1.0;
+            pts.push(if on { v } else { 0.0 });
+        }
+    }
+    let valid = (0..c)
+        .map(|i| if s % 2 == 1 && i + 3 >= c { 0.0 } else { 1.0 })
+        .collect();
+    (pts, mask, valid)
+}
+
+#[test]
+fn tract_streams_the_lstm_slice_by_slice_as_burn_does() {
+    let cfg = StarNetConfig::small_car()
+        .with_direction_classifier(true)
+        .with_lstm_hidden(Some(16));
+    let model = random_model(&cfg);
+    let bytes = onnx_model(&model, &cfg);
+    let dev = default_device();
+    let (c, p, h) = (12, 8, 16);
+    let plan = tract_onnx::onnx()
+        .model_for_read(&mut bytes.as_slice())
+        .unwrap()
+        .with_input_fact(0, f32::fact([c, p, 4]).into())
+        .unwrap()
+        .with_input_fact(1, f32::fact([c, p]).into())
+        .unwrap()
+        .with_input_fact(2, f32::fact([c]).into())
+        .unwrap()
+        .with_input_fact(3, f32::fact([1, h]).into())
+        .unwrap()
+        .with_input_fact(4, f32::fact([1, h]).into())
+        .unwrap()
+        .into_optimized()
+        .unwrap()
+        .into_runnable()
+        .unwrap();
+    // The reset rule: zeros at the sweep's first slice; then each slice's state feeds the next.
+    let (mut state_h, mut state_c) = (vec![0.0f32; h], vec![0.0f32; h]);
+    let mut burn_state = None;
+    for s in 0..5 {
+        let (pts, mask, valid) = slice_input(s, c, p);
+        let (burn, next) = model.forward_slices(
+            ModelInput {
+                points: BurnTensor::<1>::from_floats(pts.as_slice(), &dev).reshape([1, c, p, 4]),
+                mask: BurnTensor::<1>::from_floats(mask.as_slice(), &dev).reshape([1, c, p]),
+                center_valid: BurnTensor::<1>::from_floats(valid.as_slice(), &dev).reshape([1, c]),
+            },
+            1,
+            burn_state,
+        );
+        let next = next.expect("an LSTM state");
+        let inputs = tvec!(
+            tract_ndarray::Array3::from_shape_vec((c, p, 4), pts)
+                .unwrap()
+                .into_tensor()
+                .into(),
+            tract_ndarray::Array2::from_shape_vec((c, p), mask)
+                .unwrap()
+                .into_tensor()
+                .into(),
+            tract_ndarray::Array1::from_vec(valid).into_tensor().into(),
+            tract_ndarray::Array2::from_shape_vec((1, h), state_h.clone())
+                .unwrap()
+                .into_tensor()
+                .into(),
+            tract_ndarray::Array2::from_shape_vec((1, h), state_c.clone())
+                .unwrap()
+                .into_tensor()
+                .into(),
+        );
+        let out = plan.run(inputs).unwrap();
+        let flat = |t: BurnTensor<4>| t.into_data().iter::<f32>().collect::<Vec<f32>>();
+        let state = |t: BurnTensor<2>| t.into_data().iter::<f32>().collect::<Vec<f32>>();
+        let want = [
+            ("cls_logits", flat(burn.cls_logits)),
+            ("box_residuals", flat(burn.box_residuals)),
+            ("dir_logits", flat(burn.dir_logits.expect("direction logits"))),
+            ("state_h_out", state(next.hidden.clone())),
+            ("state_c_out", state(next.cell.clone())),
+        ];
+        for (k, (name, want)) in want.iter().enumerate() {
+            let got: Vec<f32> = out[k].to_array_view::<f32>().unwrap().iter().copied().collect();
+            assert_eq!(got.len(), want.len(), "{name} at slice {s}");
+            let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+            assert!(worst < 1e-4, "{name} at slice {s}: max |diff| {worst}");
+            assert!(want.iter().any(|v| v.abs() > 1e-3), "{name} should not be trivial");
+        }
+        state_h = out[3].to_array_view::<f32>().unwrap().iter().copied().collect();
+        state_c = out[4].to_array_view::<f32>().unwrap().iter().copied().collect();
+        burn_state = Some(next);
+    }
+}

@@ -121,22 +121,22 @@ pub fn budget_plots(reports: &[EvalReport]) -> [LinePlot; 2] {
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         Series {
-            name: format!("{p} POINTS"),
+            name: format!("{p} points"),
             points: pts,
         }
     };
-    let y_label = "3D AP R40 MODERATE (%)".to_string();
+    let y_label = "3D AP R40 moderate (%)".to_string();
     let gflop = LinePlot {
-        title: "AP VS COMPUTE: ONE CHECKPOINT, CENTERS VARIED ALONG EACH CURVE".into(),
-        x_label: "GFLOP PER FRAME".into(),
+        title: "AP vs compute: one checkpoint, centers varied along each curve".into(),
+        x_label: "GFLOP per frame".into(),
         y_label: y_label.clone(),
         series: points.iter().map(|&p| curve(p, &|r| r.gflop_per_frame)).collect(),
         log_x: true,
         y_range: None,
     };
     let latency = LinePlot {
-        title: "AP VS LATENCY (PREPARE + FORWARD + DECODE, MEAN PER FRAME)".into(),
-        x_label: "MS PER FRAME".into(),
+        title: "AP vs latency (prepare + forward + decode, mean per frame)".into(),
+        x_label: "ms per frame".into(),
         y_label,
         series: points.iter().map(|&p| curve(p, &|r| r.latency_ms_mean)).collect(),
         log_x: true,
@@ -151,8 +151,8 @@ pub fn write_sweep(out: &Path, reports: &[EvalReport]) -> Result<()> {
     let json = serde_json::to_string_pretty(reports).expect("reports serialise");
     atomic_write(&out.join("budget.json"), json.as_bytes())?;
     let [gflop, latency] = budget_plots(reports);
-    gflop.render().save_png(&out.join("budget_gflop.png"))?;
-    latency.render().save_png(&out.join("budget_latency.png"))?;
+    gflop.render()?.save_png(&out.join("budget_gflop.png"))?;
+    latency.render()?.save_png(&out.join("budget_latency.png"))?;
     Ok(())
 }
 

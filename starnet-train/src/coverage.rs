@@ -32,21 +32,21 @@ pub fn run_coverage(
     let table = coverage(&ds, &cfg, seed)?;
     print!("{table}");
     let chart = LinePlot {
-        title: format!("OBJECT COVERAGE, {} OBJECTS WITH >= 5 POINTS", table.objects),
-        x_label: "CENTERS PER FRAME".into(),
-        y_label: "% OBJECTS WITH AN ANCHOR AT BEV IOU > 0.5".into(),
+        title: format!("Object coverage, {} objects with ≥ 5 points", table.objects),
+        x_label: "centers per frame".into(),
+        y_label: "% of objects with an anchor at BEV IoU > 0.5".into(),
         series: table
             .rows
             .iter()
             .map(|(s, v)| Series {
-                name: format!("{s:?}").to_uppercase(),
+                name: s.label().into(),
                 points: samples.iter().map(|&n| n as f64).zip(v.iter().copied()).collect(),
             })
             .collect(),
         log_x: true,
         y_range: Some((0.0, 100.0)),
     };
-    chart.render().save_png(plot)?;
+    chart.render()?.save_png(plot)?;
     println!("wrote {}", plot.display());
     Ok(table)
 }

@@ -96,7 +96,7 @@ pub fn run_plots(log: &RunLog, name: &str) -> Vec<(&'static str, LinePlot)> {
     };
     let chart = |title: String, y: &str, series: Vec<Series>| LinePlot {
         title,
-        x_label: "STEP".into(),
+        x_label: "step".into(),
         y_label: y.into(),
         series,
         log_x: false,
@@ -106,22 +106,22 @@ pub fn run_plots(log: &RunLog, name: &str) -> Vec<(&'static str, LinePlot)> {
         (
             "loss.png",
             chart(
-                format!("{name}: LOSS (MOVING AVERAGE OVER 1% OF THE STEPS)"),
-                "LOSS",
+                format!("{name}: loss (moving average over 1% of the steps)"),
+                "loss",
                 vec![
-                    series("TOTAL", |l| l.loss),
-                    series("CLASSIFICATION", |l| l.classification),
-                    series("LOCATION", |l| l.location),
-                    series("DIMENSION", |l| l.dimension),
-                    series("ROTATION", |l| l.rotation),
+                    series("total", |l| l.loss),
+                    series("classification", |l| l.classification),
+                    series("location", |l| l.location),
+                    series("dimension", |l| l.dimension),
+                    series("rotation", |l| l.rotation),
                 ],
             ),
         ),
         (
             "lr.png",
             chart(
-                format!("{name}: LEARNING RATE"),
-                "LEARNING RATE",
+                format!("{name}: learning rate"),
+                "learning rate",
                 vec![series("LR", |l| l.lr)],
             ),
         ),
@@ -131,8 +131,8 @@ pub fn run_plots(log: &RunLog, name: &str) -> Vec<(&'static str, LinePlot)> {
         plots.push((
             "ap.png",
             chart(
-                format!("{name}: VALIDATION HEADLINE AP"),
-                "3D AP R40 MODERATE (%)",
+                format!("{name}: validation headline AP"),
+                "3D AP R40 moderate (%)",
                 vec![Series {
                     name: "VAL".into(),
                     points,
@@ -151,11 +151,11 @@ pub fn plot_run(run: &Path, out: Option<&Path>) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out).map_err(|e| starnet_data::DataError::io(out, e))?;
     let name = run
         .file_name()
-        .map_or("RUN".into(), |n| n.to_string_lossy().to_uppercase());
+        .map_or("run".into(), |n| n.to_string_lossy().into_owned());
     let mut written = Vec::new();
     for (file, chart) in run_plots(&log, &name) {
         let path = out.join(file);
-        chart.render().save_png(&path)?;
+        chart.render()?.save_png(&path)?;
         written.push(path);
     }
     Ok(written)

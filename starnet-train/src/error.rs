@@ -72,9 +72,9 @@ pub enum TrainError {
         /// What was looked for, and where it would come from.
         what: String,
     },
-    /// A model the operation does not support.
-    #[error("{0}")]
-    Unsupported(String),
+    /// Drawing a chart or a bird's-eye view failed (`plotters`' message).
+    #[error("drawing failed: {0}")]
+    Draw(String),
     /// The training step's compute threads could not be started.
     #[error("cannot start the training step's {threads} compute threads: {source}")]
     Threads {

@@ -11,7 +11,13 @@
 //!   [C, A, 2]` out, C and P dynamic, opset 13 ([`starnet_model::onnx`]);
 //! - `golden.safetensors`: a seeded input (`points [C, P, F]`, `mask [C, P]`) and the outputs the
 //!   model gives for it (`cls_logits [C, A, K]`, `box_residuals [C, A, 7]`, `dir_logits
-//!   [C, A, 2]`), for checking a port.
+//!   [C, A, 2]`), for checking a port;
+//! - for the streaming LSTM variant, `model.onnx` is one slice step (state in, state out; see
+//!   [`starnet_model::onnx`]), `model.json` says how to loop it ([`StreamingSpec`]), and
+//!   `golden_stream.safetensors` holds a whole sweep of seeded slices: per slice `s`,
+//!   `slice{s}.points`, `.mask`, `.center_valid` and the outputs with the state carried from the
+//!   sweep's start, `slice{s}.cls_logits`, `.box_residuals`, `.dir_logits`, `.state_h`, `.state_c`
+//!   (after the slice).
 
 use crate::config::{ExperimentConfig, to_toml};
 use crate::{Result, TrainError};
@@ -21,9 +27,10 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::ObjectClass;
-use starnet_data::sampling::{AnchorGrid, CenterPoolConfig, CenterZ, GatherMetric, NUM_FEATURES, Sampler};
+use starnet_data::sampling::{AnchorGrid, CenterPoolConfig, CenterZ, GatherMetric, NUM_FEATURES, Sampler, SliceConfig};
 use starnet_model::export::{NamedTensor, named_tensors, write_safetensors};
-use starnet_model::nn::{ModelInput, StarNet};
+use starnet_model::nms::Precedence;
+use starnet_model::nn::{ModelInput, SliceState, StarNet};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -100,6 +107,62 @@ pub struct ModelSpec {
     pub radius: f32,
     /// What the radius bounds: `ball` (3D distance) or `cylinder` (distance in x, y).
     pub gather_metric: GatherMetric,
+    /// The streaming LSTM variant: how to run `model.onnx` slice by slice (`None`: every call is
+    /// a whole sweep).
+    pub streaming: Option<StreamingSpec>,
+}
+
+/// How the streaming LSTM variant runs over a sweep (the streaming-detection paper, §3.4).
+#[derive(Debug, Clone, Serialize)]
+pub struct StreamingSpec {
+    /// LSTM hidden width H.
+    pub lstm_hidden: usize,
+    /// The state between slices.
+    pub state: &'static str,
+    /// When the state starts afresh.
+    pub reset: &'static str,
+    /// The order of the slices and what each holds.
+    pub slice_order: &'static str,
+    /// Where a sweep starts, which way it turns, what a slice's neighbourhoods may read.
+    pub slicing: SliceConfig,
+    /// Slices per sweep n of the run's evaluations (the model serves any n).
+    pub eval_slices: usize,
+    /// Centers per slice: `ceil(num_centers / n)`, at least 1.
+    pub centers_per_slice: &'static str,
+    /// Stateful NMS: a slice's boxes are also suppressed by those kept in the previous k slices.
+    pub nms_memory: usize,
+    /// Which of two overlapping boxes from different slices stateful NMS keeps.
+    pub nms_precedence: Precedence,
+    /// The LSTM's tensors in `model.safetensors`.
+    pub lstm_weights: &'static str,
+}
+
+impl StreamingSpec {
+    fn of(cfg: &ExperimentConfig) -> Option<Self> {
+        (cfg.model.lstm_hidden > 0).then_some(Self {
+            lstm_hidden: cfg.model.lstm_hidden,
+            state: "state_h and state_c, [1, H] f32 each (the LSTM's hidden and cell state): inputs of \
+                    model.onnx, and state_h_out / state_c_out its outputs after the slice",
+            reset: "zeros at the first slice of every sweep; each later slice of the sweep takes the \
+                    previous slice's state_h_out / state_c_out",
+            slice_order: "a sweep is cut into n equal azimuth sectors, starting at slicing.start_azimuth_deg \
+                          and turning as slicing.clockwise says; each point (atan2(y, x)) falls in one, and \
+                          slices run in that order. A slice's centers come from its own points; center_valid \
+                          is 0 for repeats that pad a slice with fewer candidates than its centers",
+            slicing: cfg.stream.slicing,
+            eval_slices: cfg.stream.eval_slices,
+            centers_per_slice: "ceil(num_centers / n), at least 1",
+            nms_memory: cfg.stream.nms_memory,
+            nms_precedence: cfg.stream.nms_precedence,
+            lstm_weights: "lstm.lstm.{input,forget,output,cell}_gate.{input,hidden}_transform.{weight [H, D | H], \
+                           bias [H]} (gate = sigmoid, sigmoid, sigmoid, tanh of x·Wxᵀ + bx + h·Whᵀ + bh; c' = \
+                           f·c + i·g, h' = o·tanh(c')); torch.nn.LSTM's weight_ih_l0 stacks the input \
+                           transforms in the order input, forget, cell, output (likewise weight_hh_l0 and \
+                           the biases, bias_ih + bias_hh = both biases). lstm.out.{weight [D, H], bias [D]} \
+                           projects h' back to the cell width; the slice's cells get it added. The LSTM \
+                           input is the mean of the valid centers' cells",
+        })
+    }
 }
 
 /// The direction classifier's decoding.
@@ -155,63 +218,118 @@ impl ModelSpec {
             num_points: cfg.eval.num_points,
             radius: cfg.pipeline.gather.radius,
             gather_metric: cfg.pipeline.gather.metric,
+            streaming: StreamingSpec::of(cfg),
         }
     }
 }
 
-/// A seeded input of `c` centers × `p` points (features uniform in [−1, 1), the last quarter of
-/// each neighbourhood padded with zeros, as the gatherer writes them) and the model's outputs for
-/// it. The input comes from its own seeded RNG, so it does not depend on the device's.
-pub fn golden(model: &StarNet, c: usize, p: usize, seed: u64) -> Vec<NamedTensor> {
-    let device = starnet_model::backend::default_device();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+/// A seeded neighbourhood input of `c` centers × `p` points, `[C, P, F]` and `[C, P]`: features
+/// uniform in [−1, 1), the last quarter of each neighbourhood padded with zeros, as the gatherer
+/// writes them. From its own RNG, so it does not depend on the device's.
+fn seeded_input(rng: &mut ChaCha8Rng, c: usize, p: usize) -> (Vec<f32>, Vec<f32>) {
     let real = p - p / 4;
     let m: Vec<f32> = (0..c * p).map(|i| if i % p < real { 1.0 } else { 0.0 }).collect();
     let values: Vec<f32> = m
         .iter()
         .flat_map(|&on| [0; NUM_FEATURES].map(|_| if on > 0.0 { rng.random_range(-1.0f32..1.0) } else { 0.0 }))
         .collect();
-    let out = model.forward(ModelInput {
-        points: Tensor::<1>::from_floats(values.as_slice(), &device).reshape([1, c, p, NUM_FEATURES]),
-        mask: Tensor::<1>::from_floats(m.as_slice(), &device).reshape([1, c, p]),
-        center_valid: Tensor::ones([1, c], &device),
-    });
-    let named = |name: &str, t: Vec<f32>, shape: Vec<usize>| NamedTensor {
-        name: name.into(),
-        shape,
-        data: t,
-    };
+    (values, m)
+}
+
+fn named(name: String, data: Vec<f32>, shape: Vec<usize>) -> NamedTensor {
+    NamedTensor { name, shape, data }
+}
+
+/// One slice (or whole sweep) through the model from `state`: the outputs, named with
+/// `prefix`, and the state after it.
+fn golden_step(
+    model: &StarNet,
+    (values, m, valid): (&[f32], &[f32], &[f32]),
+    state: Option<SliceState>,
+    prefix: &str,
+) -> (Vec<NamedTensor>, Option<SliceState>) {
+    let device = starnet_model::backend::default_device();
+    let (c, p) = (valid.len(), m.len() / valid.len());
+    let (out, next) = model.forward_slices(
+        ModelInput {
+            points: Tensor::<1>::from_floats(values, &device).reshape([1, c, p, NUM_FEATURES]),
+            mask: Tensor::<1>::from_floats(m, &device).reshape([1, c, p]),
+            center_valid: Tensor::<1>::from_floats(valid, &device).reshape([1, c]),
+        },
+        1,
+        state,
+    );
     let data = |t: Tensor<4>| t.into_data().iter::<f32>().collect::<Vec<f32>>();
     let [_, _, a, k] = out.cls_logits.dims();
     let mut tensors = vec![
-        named("points", values, vec![c, p, NUM_FEATURES]),
-        named("mask", m, vec![c, p]),
-        named("cls_logits", data(out.cls_logits), vec![c, a, k]),
-        named("box_residuals", data(out.box_residuals), vec![c, a, 7]),
+        named(format!("{prefix}cls_logits"), data(out.cls_logits), vec![c, a, k]),
+        named(format!("{prefix}box_residuals"), data(out.box_residuals), vec![c, a, 7]),
     ];
     if let Some(d) = out.dir_logits {
-        tensors.push(named("dir_logits", data(d), vec![c, a, 2]));
+        tensors.push(named(format!("{prefix}dir_logits"), data(d), vec![c, a, 2]));
+    }
+    (tensors, next)
+}
+
+/// A seeded input of `c` centers × `p` points (features uniform in [−1, 1), the last quarter of
+/// each neighbourhood padded with zeros, from its own RNG) and the model's outputs for it: a
+/// whole sweep, every center valid (the streaming variant: one slice from a fresh state).
+pub fn golden(model: &StarNet, c: usize, p: usize, seed: u64) -> Vec<NamedTensor> {
+    let (values, m) = seeded_input(&mut ChaCha8Rng::seed_from_u64(seed), c, p);
+    let valid = vec![1.0; c];
+    let (outputs, _) = golden_step(model, (&values, &m, &valid), None, "");
+    let mut tensors = vec![
+        named("points".into(), values, vec![c, p, NUM_FEATURES]),
+        named("mask".into(), m, vec![c, p]),
+    ];
+    tensors.extend(outputs);
+    tensors
+}
+
+/// A whole sweep of `slices` seeded slices (inputs as [`golden`]'s) through the streaming
+/// variant, the state carried from a fresh start: per slice its input (on odd slices the last
+/// quarter of the centers marked as repeats), outputs and the state after it, named
+/// `slice{s}.…`.
+pub fn golden_stream(model: &StarNet, c: usize, p: usize, slices: usize, seed: u64) -> Vec<NamedTensor> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (mut state, mut tensors) = (None, Vec::new());
+    for s in 0..slices {
+        let (values, m) = seeded_input(&mut rng, c, p);
+        let valid: Vec<f32> = (0..c)
+            .map(|i| if s % 2 == 1 && i >= c - c / 4 { 0.0 } else { 1.0 })
+            .collect();
+        let prefix = format!("slice{s}.");
+        let (outputs, next) = golden_step(model, (&values, &m, &valid), state, &prefix);
+        let next = next.expect("the streaming variant carries a state");
+        let flat = |t: Tensor<2>| t.into_data().iter::<f32>().collect::<Vec<f32>>();
+        let h = next.hidden.dims()[1];
+        tensors.extend([
+            named(format!("{prefix}points"), values, vec![c, p, NUM_FEATURES]),
+            named(format!("{prefix}mask"), m, vec![c, p]),
+            named(format!("{prefix}center_valid"), valid, vec![c]),
+        ]);
+        tensors.extend(outputs);
+        tensors.push(named(format!("{prefix}state_h"), flat(next.hidden.clone()), vec![1, h]));
+        tensors.push(named(format!("{prefix}state_c"), flat(next.cell.clone()), vec![1, h]));
+        state = Some(next);
     }
     tensors
 }
 
-/// Writes `model.safetensors`, `model.json`, `model.onnx` and `golden.safetensors` for `model`
-/// (in validation mode) into `out`; returns the files written.
+/// Slices in `golden_stream.safetensors`.
+pub const GOLDEN_SLICES: usize = 6;
+
+/// Writes `model.safetensors`, `model.json`, `model.onnx`, `golden.safetensors` and for the
+/// streaming variant `golden_stream.safetensors` for `model` (in validation mode) into `out`;
+/// returns the files written.
 pub fn export(model: &StarNet, cfg: &ExperimentConfig, out: &Path) -> Result<Vec<PathBuf>> {
-    if model.has_lstm() {
-        // The ONNX graph and model.json describe the per-center network only; a half export
-        // that silently drops the LSTM would detect differently.
-        return Err(crate::TrainError::Unsupported(
-            "exporting the streaming LSTM variant (model.lstm_hidden > 0) is not supported yet".into(),
-        ));
-    }
     std::fs::create_dir_all(out).map_err(|e| starnet_data::DataError::io(out, e))?;
     let metadata = BTreeMap::from([
         ("format".to_string(), "starnet".to_string()),
         ("format_version".to_string(), FORMAT_VERSION.to_string()),
         ("config".to_string(), to_toml(cfg)),
     ]);
-    let files = [
+    let mut files = vec![
         (
             out.join("model.safetensors"),
             write_safetensors(&named_tensors(model), &metadata),
@@ -229,6 +347,13 @@ pub fn export(model: &StarNet, cfg: &ExperimentConfig, out: &Path) -> Result<Vec
             write_safetensors(&golden(model, 16, 32, cfg.seed), &BTreeMap::new()),
         ),
     ];
+    if model.has_lstm() {
+        let sweep = golden_stream(model, 16, 32, GOLDEN_SLICES, cfg.seed);
+        files.push((
+            out.join("golden_stream.safetensors"),
+            write_safetensors(&sweep, &BTreeMap::new()),
+        ));
+    }
     for (path, bytes) in &files {
         atomic_write(path, bytes)?;
     }
@@ -310,5 +435,41 @@ mod tests {
             "the golden outputs hold the direction logits exactly when the model has them"
         );
         assert_eq!(spec["direction"].is_null(), !cfg.model.direction_classifier);
+    }
+
+    #[test]
+    fn the_lstm_variant_exports_a_slice_step_and_a_golden_sweep() {
+        let cfg = crate::config::load_config(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/stream-car-lstm.toml"),
+            &["model.lstm_hidden=16".into()],
+        )
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let model = cfg.model_config().init(&starnet_model::backend::default_device());
+        let files = export(&model, &cfg, dir.path()).unwrap();
+        assert_eq!(files.len(), 5);
+        // The reloaded weights (the LSTM's among them) replay the golden sweep exactly.
+        let (reloaded, _) = load_exported(dir.path(), &[]).unwrap();
+        assert!(reloaded.has_lstm());
+        let (file, _) =
+            read_safetensors(&std::fs::read(dir.path().join("golden_stream.safetensors")).unwrap()).unwrap();
+        let again = golden_stream(&reloaded, 16, 32, GOLDEN_SLICES, cfg.seed);
+        assert_eq!(file.len(), again.len());
+        for t in &again {
+            assert_eq!(&file[&t.name], t, "{}", t.name);
+        }
+        // The state moves from slice to slice, and the repeats of odd slices are marked.
+        assert_ne!(file["slice0.state_h"].data, file["slice1.state_h"].data);
+        assert_eq!(
+            file["slice1.center_valid"].data.iter().filter(|&&v| v == 0.0).count(),
+            4
+        );
+        let spec: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("model.json")).unwrap()).unwrap();
+        assert_eq!(spec["streaming"]["lstm_hidden"], 16);
+        assert_eq!(file["slice0.state_c"].shape, [1, 16]);
+        // A whole-sweep model says so.
+        let plain = ModelSpec::of(&small());
+        assert!(plain.streaming.is_none());
     }
 }

@@ -21,6 +21,16 @@ pub enum Sampler {
     Fps,
 }
 
+impl Sampler {
+    /// The name in figures and tables: `FPS` or `random`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Random => "random",
+            Self::Fps => "FPS",
+        }
+    }
+}
+
 impl std::str::FromStr for Sampler {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {

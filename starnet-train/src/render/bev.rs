@@ -3,8 +3,11 @@
 //! front edge), range rings every 10 m, and a metric scale bar. x (forward) points up the
 //! image and y (left) to the left, so the picture is what a viewer above the car would see.
 
+use super::font::FAMILY;
 use super::{Canvas, Rgb};
 use crate::Result;
+use plotters::coord::Shift;
+use plotters::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::{AugmentConfig, GtDatabase, Scene, augment};
@@ -106,98 +109,136 @@ fn height_colour(z: f32) -> Rgb {
     std::array::from_fn(|k| (c0[k] + t * (c1[k] - c0[k])) as u8)
 }
 
-fn draw_box(canvas: &mut Canvas, opts: &BevOptions, bx: &BevBox, colour: Rgb) {
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type Drawn = std::result::Result<(), Box<dyn std::error::Error>>;
+
+fn rgb([r, g, b]: Rgb) -> RGBColor {
+    RGBColor(r, g, b)
+}
+
+fn pixel_i(opts: &BevOptions, x: f32, y: f32) -> (i32, i32) {
+    let [u, v] = opts.pixel(x, y);
+    (u.round() as i32, v.round() as i32)
+}
+
+/// The box's outline, a heading mark from its centre to the middle of its front edge, and its
+/// class (and score) above it.
+fn draw_box(area: &Area, opts: &BevOptions, bx: &BevBox, colour: Rgb) -> Drawn {
     let b = &bx.b;
-    let corners = b.corners_bev().map(|[x, y]| opts.pixel(x, y));
-    canvas.polygon(&corners, colour, 2);
-    let front = [
-        0.5 * (corners[0][0] + corners[1][0]),
-        0.5 * (corners[0][1] + corners[1][1]),
-    ];
-    canvas.line(opts.pixel(b.x, b.y), front, colour, 2);
+    let corners = b.corners_bev().map(|[x, y]| pixel_i(opts, x, y));
+    let style = rgb(colour).stroke_width(2);
+    let mut outline = corners.to_vec();
+    outline.push(corners[0]);
+    area.draw(&PathElement::new(outline, style))?;
+    let front = ((corners[0].0 + corners[1].0) / 2, (corners[0].1 + corners[1].1) / 2);
+    area.draw(&PathElement::new(vec![pixel_i(opts, b.x, b.y), front], style))?;
     let label = match bx.score {
         Some(s) => format!("{} {s:.2}", bx.class),
         None => bx.class.to_string(),
     };
     let top = corners
         .iter()
-        .fold([f32::INFINITY; 2], |m, p| [m[0].min(p[0]), m[1].min(p[1])]);
-    canvas.text(top[0] as i64, top[1] as i64 - 10, &label, colour, 1);
+        .fold((i32::MAX, i32::MAX), |m, p| (m.0.min(p.0), m.1.min(p.1)));
+    let font = (FAMILY, 12).into_font().color(&rgb(colour));
+    area.draw(&Text::new(label, (top.0, top.1 - 15), font))?;
+    Ok(())
 }
 
-fn draw_rings(canvas: &mut Canvas, opts: &BevOptions) {
-    let centre = opts.pixel(0.0, 0.0);
+/// Range rings every 10 m around the sensor.
+fn draw_rings(area: &Area, opts: &BevOptions) -> Drawn {
+    let centre = pixel_i(opts, 0.0, 0.0);
     let mut r = 10.0;
     while r <= opts.reach() {
-        let n = (r * opts.px_per_m * 0.8) as usize + 16;
-        let ring: Vec<[f32; 2]> = (0..n)
-            .map(|k| {
-                let a = k as f32 / n as f32 * std::f32::consts::TAU;
-                [
-                    centre[0] + r * opts.px_per_m * a.cos(),
-                    centre[1] + r * opts.px_per_m * a.sin(),
-                ]
-            })
-            .collect();
-        canvas.polygon(&ring, RING, 1);
+        let radius = (r * opts.px_per_m).round() as i32;
+        area.draw(&Circle::new(centre, radius, rgb(RING).stroke_width(1)))?;
         r += 10.0;
     }
+    Ok(())
 }
 
-/// Sensor arrow, legend and scale bar, drawn last so nothing covers them.
-fn draw_overlay(canvas: &mut Canvas, opts: &BevOptions, title: &str, has_preds: bool) {
-    let centre = opts.pixel(0.0, 0.0);
-    canvas.line([centre[0], centre[1] + 6.0], [centre[0], centre[1] - 8.0], TEXT, 2);
-    canvas.line(
-        [centre[0] - 4.0, centre[1] - 4.0],
-        [centre[0], centre[1] - 8.0],
-        TEXT,
-        2,
-    );
-    canvas.line(
-        [centre[0] + 4.0, centre[1] - 4.0],
-        [centre[0], centre[1] - 8.0],
-        TEXT,
-        2,
-    );
-    // Long titles (augmented frames) drop to the small font rather than run off the image.
-    let scale = if 12 * title.chars().count() + 20 > canvas.width() {
-        1
-    } else {
-        2
-    };
-    let title_w = (6 * scale * title.chars().count()) as i64;
-    canvas.fill_rect(0, 0, 20 + title_w.max(300), 52, BACKGROUND);
-    canvas.text(10, 10, title, TEXT, scale);
-    let w = canvas.text(10, 32, "GROUND TRUTH", GT, 2);
+/// Sensor arrow, title, legend and scale bar, drawn last so nothing covers them.
+fn draw_overlay(area: &Area, opts: &BevOptions, title: &str, has_preds: bool) -> Drawn {
+    let (cx, cy) = pixel_i(opts, 0.0, 0.0);
+    let ink = rgb(TEXT).stroke_width(2);
+    area.draw(&PathElement::new(vec![(cx, cy + 6), (cx, cy - 8)], ink))?;
+    area.draw(&PathElement::new(
+        vec![(cx - 4, cy - 4), (cx, cy - 8), (cx + 4, cy - 4)],
+        ink,
+    ))?;
+    let (w, h) = area.dim_in_pixel();
+    let (w, h) = (w as i32, h as i32);
+    let title_font = (FAMILY, 17).into_font();
+    let title_w = area
+        .estimate_text_size(title, &title_font.clone().into_text_style(area))?
+        .0 as i32;
+    area.draw(&Rectangle::new(
+        [(0, 0), ((title_w + 20).max(260).min(w), 54)],
+        rgb(BACKGROUND).filled(),
+    ))?;
+    area.draw(&Text::new(title, (10, 8), title_font.color(&rgb(TEXT))))?;
+    let legend = (FAMILY, 15).into_font();
+    area.draw(&Text::new("ground truth", (10, 31), legend.color(&rgb(GT))))?;
     if has_preds {
-        canvas.text(10 + w + 16, 32, "PREDICTION", PRED, 2);
+        let x = 10
+            + area
+                .estimate_text_size("ground truth", &legend.clone().into_text_style(area))?
+                .0 as i32
+            + 16;
+        area.draw(&Text::new("prediction", (x, 31), legend.color(&rgb(PRED))))?;
     }
-    let (h, len) = (canvas.height() as f32, 10.0 * opts.px_per_m);
-    canvas.fill_rect(0, h as i64 - 34, len as i64 + 80, h as i64, BACKGROUND);
-    canvas.line([10.0, h - 20.0], [10.0 + len, h - 20.0], TEXT, 3);
-    canvas.line([10.0, h - 26.0], [10.0, h - 14.0], TEXT, 2);
-    canvas.line([10.0 + len, h - 26.0], [10.0 + len, h - 14.0], TEXT, 2);
-    canvas.text(10 + len as i64 + 8, h as i64 - 27, "10 m", TEXT, 2);
+    // A 10 m scale bar, bottom left.
+    let len = (10.0 * opts.px_per_m).round() as i32;
+    area.draw(&Rectangle::new(
+        [(0, h - 36), ((len + 80).min(w), h)],
+        rgb(BACKGROUND).filled(),
+    ))?;
+    area.draw(&PathElement::new(
+        vec![(10, h - 20), (10 + len, h - 20)],
+        rgb(TEXT).stroke_width(3),
+    ))?;
+    for x in [10, 10 + len] {
+        area.draw(&PathElement::new(vec![(x, h - 26), (x, h - 14)], ink))?;
+    }
+    area.draw(&Text::new("10 m", (len + 18, h - 28), legend.color(&rgb(TEXT))))?;
+    Ok(())
 }
 
 /// Draws a bird's-eye view.
-pub fn render_bev(points: &[Point], gt: &[BevBox], preds: &[BevBox], opts: &BevOptions, title: &str) -> Canvas {
+pub fn render_bev(points: &[Point], gt: &[BevBox], preds: &[BevBox], opts: &BevOptions, title: &str) -> Result<Canvas> {
     let (w, h) = opts.size();
     let mut canvas = Canvas::new(w, h, BACKGROUND);
-    draw_rings(&mut canvas, opts);
-    for p in points {
-        let [u, v] = opts.pixel(p[0], p[1]);
-        canvas.put(u as i64, v as i64, height_colour(p[2]));
-    }
-    for b in gt {
-        draw_box(&mut canvas, opts, b, GT);
-    }
-    for b in preds {
-        draw_box(&mut canvas, opts, b, PRED);
-    }
-    draw_overlay(&mut canvas, opts, title, !preds.is_empty());
-    canvas
+    canvas.draw(|area| {
+        draw_rings(area, opts)?;
+        for p in points {
+            let (u, v) = pixel_i(opts, p[0], p[1]);
+            area.draw_pixel((u, v), &rgb(height_colour(p[2])))?;
+        }
+        for b in gt {
+            draw_box(area, opts, b, GT)?;
+        }
+        for b in preds {
+            draw_box(area, opts, b, PRED)?;
+        }
+        draw_overlay(area, opts, title, !preds.is_empty())
+    })?;
+    Ok(canvas)
+}
+
+/// Centers as squares: the first `num_seeded` larger and in [`SEEDED`], drawn last so FPS
+/// centers never hide them.
+fn draw_center_marks(canvas: &mut Canvas, centers: &Centers, opts: &BevOptions) -> Result<()> {
+    canvas.draw(|area| {
+        for (i, c) in centers.xyz.iter().enumerate().rev() {
+            let (u, v) = pixel_i(opts, c[0], c[1]);
+            let (r, colour) = if i < centers.num_seeded {
+                (3, SEEDED)
+            } else {
+                (2, CENTER)
+            };
+            area.draw(&Rectangle::new([(u - r, v - r), (u + r, v + r)], rgb(colour).filled()))?;
+        }
+        Ok(())
+    })
 }
 
 /// What [`render_frame`] draws besides the points and labels.
@@ -234,7 +275,7 @@ pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opt
         classes: labelled.iter().map(|l| l.0).collect(),
     };
     let mut rng = ChaCha8Rng::seed_from_u64(extra.seed);
-    let mut title = format!("FRAME {id}");
+    let mut title = format!("frame {id}");
     if extra.augment {
         title += &augment_scene(dataset, &mut scene, &mut rng)?;
     }
@@ -253,17 +294,8 @@ pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opt
         None => Vec::new(),
         Some(dir) => read_predictions(&dir.join(format!("{id}.txt")), &frame)?,
     };
-    let mut canvas = render_bev(&scene.points, &gt, &preds, opts, &title);
-    // Seeded centers last and larger, so FPS centers never hide them.
-    for (i, c) in centers.xyz.iter().enumerate().rev() {
-        let [u, v] = opts.pixel(c[0], c[1]);
-        let (r, colour) = if i < centers.num_seeded {
-            (3, SEEDED)
-        } else {
-            (2, CENTER)
-        };
-        canvas.fill_rect(u as i64 - r, v as i64 - r, u as i64 + r + 1, v as i64 + r + 1, colour);
-    }
+    let mut canvas = render_bev(&scene.points, &gt, &preds, opts, &title)?;
+    draw_center_marks(&mut canvas, &centers, opts)?;
     Ok(canvas)
 }
 
@@ -278,11 +310,11 @@ fn augment_scene(dataset: &KittiDataset, scene: &mut Scene, rng: &mut ChaCha8Rng
     };
     let draw = augment(scene, &AugmentConfig::default(), db.as_ref(), rng);
     Ok(format!(
-        "  AUGMENTED: +{} PASTED, ROT {:.2}, SCALE {:.3}{}",
+        "  augmented: +{} pasted, rotation {:.2}, scale {:.3}{}",
         draw.pasted.len(),
         draw.rotation,
         draw.scale,
-        if draw.flipped { ", FLIPPED" } else { "" }
+        if draw.flipped { ", flipped" } else { "" }
     ))
 }
 
@@ -298,7 +330,7 @@ fn draw_centers(
 ) -> Centers {
     match (&extra.given_centers, extra.centers) {
         (Some(given), _) => {
-            *title += &format!("  {} CENTERS, {} SEEDED FROM T-1", given.len(), given.num_seeded);
+            *title += &format!("  {} centers, {} seeded from t - 1", given.len(), given.num_seeded);
             given.clone()
         }
         (None, Some((sampler, n))) => {
@@ -308,7 +340,7 @@ fn draw_centers(
                 CenterPoolConfig::kitti()
             };
             let pool = center_pool(&scene.points, &pool_cfg, Some((&frame.calib, frame.image_size)));
-            *title += &format!("  {n} {sampler:?} CENTERS").to_uppercase();
+            *title += &format!("  {n} {} centers", sampler.label());
             sample_centers(&scene.points, &pool, n, sampler, &[], CenterZ::Point, rng)
         }
         (None, None) => sample_centers(&[], &[], 0, Sampler::Random, &[], CenterZ::Point, rng),
@@ -357,7 +389,7 @@ mod tests {
             score: None,
         };
         let p = BevBox { score: Some(0.5), ..b };
-        let c = render_bev(&pts, &[b], &[], &opts, "T");
+        let c = render_bev(&pts, &[b], &[], &opts, "T").unwrap();
         assert_eq!((c.width(), c.height()), (400, 400));
         assert_eq!(BevOptions::front(100.0, 2.0).size(), (220, 220));
         assert_eq!(c.get(150, 100), Some(height_colour(-1.7)));
@@ -366,7 +398,7 @@ mod tests {
         assert_eq!(c.get(290, 300), Some(GT));
         assert_ne!(c.get(295, 305), Some(GT)); // inside, off the edges and the heading mark
         assert_eq!(count(&c, PRED), 0);
-        let with_pred = render_bev(&pts, &[b], &[p], &opts, "T");
+        let with_pred = render_bev(&pts, &[b], &[p], &opts, "T").unwrap();
         assert!(count(&with_pred, PRED) > 100);
     }
 

@@ -1,8 +1,10 @@
-//! An RGB raster with the few primitives the renderers need (pixels, thick lines, rectangles,
-//! bitmap text) and an atomic PNG writer. Coordinates are pixels, origin top-left, y down.
+//! The RGB image the renderers draw into with `plotters`, and its atomic PNG writer.
+//! Coordinates are pixels, origin top-left, y down.
 
 use super::font;
 use crate::{Result, TrainError};
+use plotters::coord::Shift;
+use plotters::prelude::{BitMapBackend, DrawingArea, IntoDrawingArea};
 use std::path::Path;
 
 /// An RGB colour.
@@ -13,7 +15,7 @@ pub type Rgb = [u8; 3];
 pub struct Canvas {
     width: usize,
     height: usize,
-    pixels: Vec<Rgb>,
+    rgb: Vec<u8>,
 }
 
 impl Canvas {
@@ -22,7 +24,7 @@ impl Canvas {
         Self {
             width,
             height,
-            pixels: vec![background; width * height],
+            rgb: background.repeat(width * height),
         }
     }
 
@@ -38,73 +40,25 @@ impl Canvas {
 
     /// The colour at `(x, y)`, `None` outside.
     pub fn get(&self, x: i64, y: i64) -> Option<Rgb> {
-        self.index(x, y).map(|i| self.pixels[i])
+        let inside = x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height;
+        inside.then(|| {
+            let i = 3 * (y as usize * self.width + x as usize);
+            [self.rgb[i], self.rgb[i + 1], self.rgb[i + 2]]
+        })
     }
 
-    fn index(&self, x: i64, y: i64) -> Option<usize> {
-        (x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height)
-            .then(|| y as usize * self.width + x as usize)
-    }
-
-    /// Sets one pixel; outside the canvas it is a no-op (shapes may cross the border).
-    pub fn put(&mut self, x: i64, y: i64, c: Rgb) {
-        if let Some(i) = self.index(x, y) {
-            self.pixels[i] = c;
-        }
-    }
-
-    /// Fills the rectangle `[x0, x1) × [y0, y1)`.
-    pub fn fill_rect(&mut self, x0: i64, y0: i64, x1: i64, y1: i64, c: Rgb) {
-        for y in y0.max(0)..y1.min(self.height as i64) {
-            for x in x0.max(0)..x1.min(self.width as i64) {
-                self.put(x, y, c);
-            }
-        }
-    }
-
-    /// A line of the given thickness from `a` to `b` (sub-pixel endpoints).
-    pub fn line(&mut self, a: [f32; 2], b: [f32; 2], c: Rgb, thickness: u32) {
-        let steps = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()).ceil() as usize).max(1);
-        let r = thickness as i64 / 2;
-        let lo = -r;
-        let hi = thickness as i64 - 1 - r;
-        for s in 0..=steps {
-            let t = s as f32 / steps as f32;
-            let (x, y) = (
-                (a[0] + t * (b[0] - a[0])).round() as i64,
-                (a[1] + t * (b[1] - a[1])).round() as i64,
-            );
-            for dy in lo..=hi {
-                for dx in lo..=hi {
-                    self.put(x + dx, y + dy, c);
-                }
-            }
-        }
-    }
-
-    /// A closed polygon outline.
-    pub fn polygon(&mut self, pts: &[[f32; 2]], c: Rgb, thickness: u32) {
-        for i in 0..pts.len() {
-            self.line(pts[i], pts[(i + 1) % pts.len()], c, thickness);
-        }
-    }
-
-    /// Text with its top-left corner at `(x, y)`, each font pixel drawn `scale × scale`.
-    /// Returns the width drawn, in pixels.
-    pub fn text(&mut self, x: i64, y: i64, s: &str, c: Rgb, scale: usize) -> i64 {
-        let sc = scale as i64;
-        for (k, ch) in s.chars().enumerate() {
-            let ox = x + (k * font::ADVANCE * scale) as i64;
-            for (row, bits) in font::glyph(ch).iter().enumerate() {
-                for col in 0..5 {
-                    if bits >> (4 - col) & 1 == 1 {
-                        let (px, py) = (ox + col * sc, y + row as i64 * sc);
-                        self.fill_rect(px, py, px + sc, py + sc, c);
-                    }
-                }
-            }
-        }
-        (s.chars().count() * font::ADVANCE * scale) as i64
+    /// Runs `paint` on a `plotters` drawing area over the whole canvas (the shipped font
+    /// registered first).
+    pub fn draw<F>(&mut self, paint: F) -> Result<()>
+    where
+        F: FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> std::result::Result<(), Box<dyn std::error::Error>>,
+    {
+        font::register();
+        let size = (self.width as u32, self.height as u32);
+        let area = BitMapBackend::with_buffer(&mut self.rgb, size).into_drawing_area();
+        paint(&area)
+            .and_then(|()| area.present().map_err(Into::into))
+            .map_err(|e| TrainError::Draw(e.to_string()))
     }
 
     /// The image as PNG bytes (8-bit RGB).
@@ -114,7 +68,7 @@ impl Canvas {
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         let mut writer = enc.write_header()?;
-        writer.write_image_data(self.pixels.as_flattened())?;
+        writer.write_image_data(&self.rgb)?;
         writer.finish()?;
         Ok(out)
     }
@@ -132,37 +86,30 @@ impl Canvas {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    const W: Rgb = [255, 255, 255];
-
-    #[test]
-    fn line_covers_both_endpoints_and_clips() {
-        let mut c = Canvas::new(10, 10, [0; 3]);
-        c.line([1.0, 1.0], [8.0, 5.0], W, 1);
-        assert_eq!(c.get(1, 1), Some(W));
-        assert_eq!(c.get(8, 5), Some(W));
-        assert_eq!(c.get(1, 8), Some([0; 3]));
-        c.line([-5.0, -5.0], [20.0, 20.0], W, 3); // crosses the border: no panic
-        assert_eq!(c.get(9, 9), Some(W));
-    }
+    use plotters::prelude::{RGBColor, Rectangle};
+    use plotters::style::Color;
 
     #[test]
-    fn text_draws_the_glyph_bits() {
-        let mut c = Canvas::new(20, 10, [0; 3]);
-        let w = c.text(0, 0, "1", W, 1);
-        assert_eq!(w, 6);
-        let lit = (0..10)
-            .flat_map(|y| (0..20).map(move |x| (x, y)))
-            .filter(|&(x, y)| c.get(x, y) == Some(W))
-            .count();
-        let want: u32 = font::glyph('1').iter().map(|r| r.count_ones()).sum();
-        assert_eq!(lit as u32, want);
+    fn drawing_lands_on_the_pixels_named() {
+        let mut c = Canvas::new(8, 6, [0; 3]);
+        c.draw(|a| {
+            a.draw(&Rectangle::new([(2, 1), (4, 3)], RGBColor(200, 100, 50).filled()))?;
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(c.get(3, 2), Some([200, 100, 50]));
+        assert_eq!(c.get(6, 2), Some([0; 3]));
+        assert_eq!(c.get(8, 0), None);
     }
 
     #[test]
     fn png_round_trip() {
         let mut c = Canvas::new(4, 3, [1, 2, 3]);
-        c.put(2, 1, [200, 100, 50]);
+        c.draw(|a| {
+            a.draw_pixel((2, 1), &RGBColor(200, 100, 50))?;
+            Ok(())
+        })
+        .unwrap();
         let bytes = c.encode_png().unwrap();
         let mut reader = png::Decoder::new(std::io::Cursor::new(bytes)).read_info().unwrap();
         let mut buf = vec![0; reader.output_buffer_size().unwrap()];

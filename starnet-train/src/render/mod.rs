@@ -1,4 +1,5 @@
-//! Pictures: a small raster canvas with a bitmap font, and the bird's-eye view of a frame.
+//! Pictures on `plotters`: line charts and the bird's-eye view of a frame, drawn into an RGB
+//! [`Canvas`] with the shipped DejaVu Sans and written as PNG.
 
 mod bev;
 mod canvas;

@@ -199,14 +199,12 @@ fn latency_table(runs: &[StreamRun]) -> Table {
 
 /// AP of the first class against n and against peak compute, and worst-case latency against n.
 pub fn stream_plots(runs: &[StreamRun]) -> [LinePlot; 3] {
-    let class = runs
-        .first()
-        .map_or(String::new(), |r| r.classes[0].to_string().to_uppercase());
+    let class = runs.first().map_or(String::new(), |r| r.classes[0].to_string());
     let series = |x: &dyn Fn(&StreamReport) -> f64| {
         runs.iter()
             .flat_map(|run| {
                 NmsMode::ALL.into_iter().map(move |mode| Series {
-                    name: run.row(mode).join(": ").to_uppercase(),
+                    name: run.row(mode).join(": "),
                     points: run.reports.iter().map(|r| (x(r), r.ap(mode, 0))).collect(),
                 })
             })
@@ -214,16 +212,16 @@ pub fn stream_plots(runs: &[StreamRun]) -> [LinePlot; 3] {
     };
     let y_label = format!("{class} LEVEL_1 AP (%)");
     let by_n = LinePlot {
-        title: "STREAMING: AP VS SLICES PER SWEEP".into(),
-        x_label: "SLICES N".into(),
+        title: "Streaming: AP vs slices per sweep".into(),
+        x_label: "slices n".into(),
         y_label: y_label.clone(),
         series: series(&|r| r.slices as f64),
         log_x: true,
         y_range: None,
     };
     let by_flops = LinePlot {
-        title: "STREAMING: AP VS PEAK COMPUTE (FRACTION OF A WHOLE SWEEP)".into(),
-        x_label: "PEAK GFLOP / WHOLE-SWEEP GFLOP".into(),
+        title: "Streaming: AP vs peak compute (fraction of a whole sweep)".into(),
+        x_label: "peak GFLOP / whole-sweep GFLOP".into(),
         y_label,
         series: series(&|r| r.peak_fraction),
         log_x: true,
@@ -239,18 +237,18 @@ pub fn stream_plots(runs: &[StreamRun]) -> [LinePlot; 3] {
                 .collect()
         };
         lat.push(Series {
-            name: format!("{}: STREAMING", run.label.to_uppercase()),
+            name: format!("{}: streaming", run.label),
             points: pts(&|l| l.worst_case_ms),
         });
         lat.push(Series {
-            name: format!("{}: WHOLE SWEEP", run.label.to_uppercase()),
+            name: format!("{}: whole sweep", run.label),
             points: pts(&|l| l.baseline_ms),
         });
     }
     let latency = LinePlot {
-        title: "WORST-CASE LATENCY: SCAN OF A SLICE + ITS INFERENCE".into(),
-        x_label: "SLICES N".into(),
-        y_label: "MS".into(),
+        title: "Worst-case latency: scan of a slice + its inference".into(),
+        x_label: "slices n".into(),
+        y_label: "worst-case latency (ms)".into(),
         series: lat,
         log_x: true,
         y_range: None,
@@ -265,9 +263,9 @@ pub fn write_stream(out: &Path, runs: &[StreamRun]) -> Result<()> {
     let json = serde_json::to_string_pretty(runs).expect("reports serialise");
     atomic_write(&out.join("stream.json"), json.as_bytes())?;
     let [ap, flops, lat] = stream_plots(runs);
-    ap.render().save_png(&out.join("stream_ap.png"))?;
-    flops.render().save_png(&out.join("stream_flops.png"))?;
-    lat.render().save_png(&out.join("stream_latency.png"))?;
+    ap.render()?.save_png(&out.join("stream_ap.png"))?;
+    flops.render()?.save_png(&out.join("stream_flops.png"))?;
+    lat.render()?.save_png(&out.join("stream_latency.png"))?;
     Ok(())
 }
 

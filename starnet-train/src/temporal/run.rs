@@ -279,16 +279,16 @@ pub fn temporal_plot(reports: &[TemporalReport]) -> LinePlot {
                 .collect();
             points.sort_by(|a, b| a.0.total_cmp(&b.0));
             let name = match p {
-                PrevCenters::Count(0) | PrevCenters::Percent(0) => "FPS ONLY".to_string(),
-                p => format!("{p} FROM FRAME T-1"),
+                PrevCenters::Count(0) | PrevCenters::Percent(0) => "FPS only".to_string(),
+                p => format!("{p} from frame t − 1"),
             };
             Series { name, points }
         })
         .collect();
     LinePlot {
-        title: "AP VS CENTERS, WITH AND WITHOUT SEEDS FROM FRAME T-1".into(),
-        x_label: "CENTERS PER FRAME".into(),
-        y_label: "HEADLINE AP (%)".into(),
+        title: "AP vs centers, with and without seeds from frame t − 1".into(),
+        x_label: "centers per frame".into(),
+        y_label: "headline AP (%)".into(),
         series,
         log_x: true,
         y_range: None,
@@ -300,7 +300,9 @@ pub fn write_temporal(out: &Path, reports: &[TemporalReport]) -> Result<()> {
     atomic_write(&out.join("temporal.md"), temporal_table(reports).as_bytes())?;
     let json = serde_json::to_string_pretty(reports).expect("reports serialise");
     atomic_write(&out.join("temporal.json"), json.as_bytes())?;
-    temporal_plot(reports).render().save_png(&out.join("temporal_ap.png"))?;
+    temporal_plot(reports)
+        .render()?
+        .save_png(&out.join("temporal_ap.png"))?;
     Ok(())
 }
 
