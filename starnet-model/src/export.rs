@@ -6,7 +6,8 @@
 //! - a Linear weight is `[out, in]` (Burn stores `[in, out]`), its bias `[out]`;
 //! - a BatchNorm's γ / β are `weight` / `bias`, beside `running_mean` and `running_var`
 //!   (biased variance, ε in the metadata of the caller's choosing);
-//! - every tensor is little-endian f32, in visiting order, the header padded to 8 bytes.
+//! - every tensor is little-endian f32; the file is written and read by Hugging Face's
+//!   `safetensors` crate.
 //!
 //! [`read_safetensors`] and [`load_weights`] are the inverse: a written file loads back into
 //! the Burn model bit for bit.
@@ -14,6 +15,8 @@
 use crate::nn::StarNet;
 use burn::module::{Module, ModuleMapper, ModuleVisitor, Param};
 use burn::prelude::*;
+use safetensors::tensor::TensorView;
+use safetensors::{Dtype, SafeTensors};
 use std::collections::BTreeMap;
 
 /// Errors reading a safetensors file or loading it into a model.
@@ -115,33 +118,19 @@ pub fn named_tensors(model: &StarNet) -> Vec<NamedTensor> {
     c.out
 }
 
-/// Encodes tensors (in order) and string metadata as a safetensors file.
+/// Encodes tensors and string metadata as a safetensors file (the `safetensors` crate lays the
+/// tensors out by dtype and name, 8-byte aligned).
 pub fn write_safetensors(tensors: &[NamedTensor], metadata: &BTreeMap<String, String>) -> Vec<u8> {
-    let mut header = serde_json::Map::new();
-    header.insert("__metadata__".into(), serde_json::json!(metadata));
-    let mut offset = 0usize;
-    for t in tensors {
-        let end = offset + 4 * t.data.len();
-        header.insert(
-            t.name.clone(),
-            serde_json::json!({"dtype": "F32", "shape": t.shape, "data_offsets": [offset, end]}),
-        );
-        offset = end;
-    }
-    let mut json = serde_json::to_string(&header).expect("header serialises").into_bytes();
-    // The data starts 8-byte aligned (the format allows trailing spaces in the header).
-    while !(8 + json.len()).is_multiple_of(8) {
-        json.push(b' ');
-    }
-    let mut bytes = Vec::with_capacity(8 + json.len() + offset);
-    bytes.extend_from_slice(&(json.len() as u64).to_le_bytes());
-    bytes.extend_from_slice(&json);
-    for t in tensors {
-        for v in &t.data {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-    bytes
+    let bytes: Vec<Vec<u8>> = tensors
+        .iter()
+        .map(|t| t.data.iter().flat_map(|v| v.to_le_bytes()).collect())
+        .collect();
+    let views = tensors.iter().zip(&bytes).map(|(t, b)| {
+        let view = TensorView::new(Dtype::F32, t.shape.clone(), b).expect("4 bytes per value of the shape");
+        (t.name.as_str(), view)
+    });
+    let info = (!metadata.is_empty()).then(|| metadata.clone().into_iter().collect());
+    safetensors::serialize(views, info).expect("f32 tensors with distinct names serialise")
 }
 
 /// Tensors by name.
@@ -149,53 +138,25 @@ pub type TensorMap = BTreeMap<String, NamedTensor>;
 
 /// Decodes a safetensors file of f32 tensors: the tensors by name, and the metadata.
 pub fn read_safetensors(bytes: &[u8]) -> Result<(TensorMap, BTreeMap<String, String>), ExportError> {
-    let bad = |m: &str| ExportError::Format(m.to_string());
-    let n = u64::from_le_bytes(
-        bytes
-            .get(..8)
-            .ok_or_else(|| bad("shorter than its 8-byte header length"))?
-            .try_into()
-            .expect("8 bytes"),
-    ) as usize;
-    let header = bytes
-        .get(8..8usize.saturating_add(n))
-        .ok_or_else(|| bad("header runs past the end"))?;
-    let data = &bytes[8 + n..];
-    let header: serde_json::Map<String, serde_json::Value> =
-        serde_json::from_slice(header).map_err(|e| ExportError::Format(format!("header: {e}")))?;
+    let bad = |e: safetensors::SafeTensorError| ExportError::Format(e.to_string());
+    let (_, header) = SafeTensors::read_metadata(bytes).map_err(bad)?;
+    let file = SafeTensors::deserialize(bytes).map_err(bad)?;
+    let metadata = header.metadata().clone().unwrap_or_default().into_iter().collect();
     let mut tensors = BTreeMap::new();
-    let mut metadata = BTreeMap::new();
-    for (name, v) in header {
-        if name == "__metadata__" {
-            metadata = serde_json::from_value(v).map_err(|e| ExportError::Format(format!("__metadata__: {e}")))?;
-            continue;
+    for (name, view) in file.tensors() {
+        if view.dtype() != Dtype::F32 {
+            return Err(ExportError::Tensor {
+                name,
+                message: format!("dtype {:?}; only F32 tensors are supported", view.dtype()),
+            });
         }
-        let entry = |m: &str| ExportError::Tensor {
-            name: name.clone(),
-            message: m.to_string(),
-        };
-        if v["dtype"] != "F32" {
-            return Err(entry("only F32 tensors are supported"));
-        }
-        let shape: Vec<usize> = serde_json::from_value(v["shape"].clone()).map_err(|_| entry("bad shape"))?;
-        let [begin, end]: [usize; 2] =
-            serde_json::from_value(v["data_offsets"].clone()).map_err(|_| entry("bad data_offsets"))?;
-        let raw = data
-            .get(begin..end)
-            .filter(|r| r.len() == 4 * shape.iter().product::<usize>())
-            .ok_or_else(|| entry("data_offsets do not match the shape or the file"))?;
-        let values = raw
+        let data = view
+            .data()
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
             .collect();
-        tensors.insert(
-            name.clone(),
-            NamedTensor {
-                name,
-                shape,
-                data: values,
-            },
-        );
+        let shape = view.shape().to_vec();
+        tensors.insert(name.clone(), NamedTensor { name, shape, data });
     }
     Ok((tensors, metadata))
 }

@@ -1,4 +1,5 @@
-//! The dense network as an ONNX graph (opset 13), built node by node: Burn's ONNX exporter
+//! The dense network as an ONNX graph (opset 13), built node by node as the typed messages of
+//! the official `onnx.proto` (the `onnx-protobuf` crate): Burn's ONNX exporter
 //! cannot lower the masked max and mean, `expand` or the masks (see issue #7), and the graph
 //! here needs none of Burn's tracing. Host code does sampling, gathering, decoding and NMS
 //! (`model.json` is their contract).
@@ -19,50 +20,18 @@
 
 use crate::export::{NamedTensor, named_tensors, transpose};
 use crate::nn::{MaskedBatchNormConfig, StarNet, StarNetConfig};
+use onnx_protobuf::attribute_proto::AttributeType;
+use onnx_protobuf::tensor_proto::DataType;
+use onnx_protobuf::tensor_shape_proto::{Dimension, dimension};
+use onnx_protobuf::{
+    AttributeProto, GraphProto, ModelProto, NodeProto, OperatorSetIdProto, TensorProto, TensorShapeProto, TypeProto,
+    ValueInfoProto, type_proto,
+};
+use protobuf::{Message, MessageField};
 use std::collections::BTreeMap;
 
 /// The ONNX opset the graph uses.
 pub const OPSET: i64 = 13;
-
-/// Minimal protobuf writer: the wire format the ONNX messages need.
-#[derive(Default)]
-struct Pb(Vec<u8>);
-
-impl Pb {
-    fn varint(&mut self, mut v: u64) {
-        while v >= 0x80 {
-            self.0.push((v as u8) | 0x80);
-            v >>= 7;
-        }
-        self.0.push(v as u8);
-    }
-
-    fn key(&mut self, field: u32, wire: u8) {
-        self.varint((u64::from(field) << 3) | u64::from(wire));
-    }
-
-    fn int(&mut self, field: u32, v: i64) {
-        self.key(field, 0);
-        self.varint(v as u64);
-    }
-
-    fn bytes(&mut self, field: u32, b: &[u8]) {
-        self.key(field, 2);
-        self.varint(b.len() as u64);
-        self.0.extend_from_slice(b);
-    }
-
-    fn str(&mut self, field: u32, s: &str) {
-        self.bytes(field, s.as_bytes());
-    }
-
-    fn msg(&mut self, field: u32, m: &Pb) {
-        self.bytes(field, &m.0);
-    }
-}
-
-const FLOAT: i64 = 1;
-const INT64: i64 = 7;
 
 /// A node attribute.
 enum Attr {
@@ -73,8 +42,8 @@ enum Attr {
 /// The graph under construction.
 #[derive(Default)]
 struct Graph {
-    nodes: Vec<Pb>,
-    initializers: Vec<Pb>,
+    nodes: Vec<NodeProto>,
+    initializers: Vec<TensorProto>,
     next: usize,
 }
 
@@ -85,15 +54,14 @@ impl Graph {
         format!("{stem}_{}", self.next)
     }
 
-    fn tensor(&mut self, name: &str, dims: &[usize], data_type: i64, raw: Vec<u8>) {
-        let mut t = Pb::default();
-        for &d in dims {
-            t.int(1, d as i64);
-        }
-        t.int(2, data_type);
-        t.str(8, name);
-        t.bytes(9, &raw);
-        self.initializers.push(t);
+    fn tensor(&mut self, name: &str, dims: &[usize], data_type: DataType, raw: Vec<u8>) {
+        self.initializers.push(TensorProto {
+            dims: dims.iter().map(|&d| d as i64).collect(),
+            data_type: data_type as i32,
+            name: name.into(),
+            raw_data: raw,
+            ..TensorProto::default()
+        });
     }
 
     /// An f32 constant.
@@ -102,7 +70,7 @@ impl Graph {
         self.tensor(
             &name,
             dims,
-            FLOAT,
+            DataType::FLOAT,
             values.iter().flat_map(|v| v.to_le_bytes()).collect(),
         );
         name
@@ -114,7 +82,7 @@ impl Graph {
         self.tensor(
             &name,
             &[values.len()],
-            INT64,
+            DataType::INT64,
             values.iter().flat_map(|v| v.to_le_bytes()).collect(),
         );
         name
@@ -129,54 +97,59 @@ impl Graph {
 
     /// Adds a node writing `out`.
     fn op_into(&mut self, op_type: &str, inputs: &[&str], attrs: &[(&str, Attr)], out: &str) {
-        let mut n = Pb::default();
-        for i in inputs {
-            n.str(1, i);
-        }
-        n.str(2, out);
-        n.str(3, out);
-        n.str(4, op_type);
-        for (name, a) in attrs {
-            let mut p = Pb::default();
-            p.str(1, name);
-            match a {
-                Attr::Int(v) => {
-                    p.int(3, *v);
-                    p.int(20, 2);
+        let attribute = attrs
+            .iter()
+            .map(|(name, a)| {
+                let mut p = AttributeProto {
+                    name: (*name).into(),
+                    ..AttributeProto::default()
+                };
+                match a {
+                    Attr::Int(v) => (p.i, p.type_) = (*v, AttributeType::INT.into()),
+                    Attr::Ints(vs) => (p.ints, p.type_) = (vs.clone(), AttributeType::INTS.into()),
                 }
-                Attr::Ints(vs) => {
-                    for v in vs {
-                        p.int(8, *v);
-                    }
-                    p.int(20, 7);
-                }
-            }
-            n.msg(5, &p);
-        }
-        self.nodes.push(n);
+                p
+            })
+            .collect();
+        self.nodes.push(NodeProto {
+            input: inputs.iter().map(|i| (*i).into()).collect(),
+            output: vec![out.into()],
+            name: out.into(),
+            op_type: op_type.into(),
+            attribute,
+            ..NodeProto::default()
+        });
     }
 }
 
 /// A tensor value's type: f32 with these dims (`Err` = a named dynamic dim).
-fn value_info(name: &str, dims: &[Result<usize, &str>]) -> Pb {
-    let mut shape = Pb::default();
-    for d in dims {
-        let mut dim = Pb::default();
-        match d {
-            Ok(v) => dim.int(1, *v as i64),
-            Err(p) => dim.str(2, p),
-        }
-        shape.msg(1, &dim);
+fn value_info(name: &str, dims: &[Result<usize, &str>]) -> ValueInfoProto {
+    let dim = dims
+        .iter()
+        .map(|d| Dimension {
+            value: Some(match d {
+                Ok(v) => dimension::Value::DimValue(*v as i64),
+                Err(p) => dimension::Value::DimParam((*p).into()),
+            }),
+            ..Dimension::default()
+        })
+        .collect();
+    let tensor = type_proto::Tensor {
+        elem_type: DataType::FLOAT as i32,
+        shape: MessageField::some(TensorShapeProto {
+            dim,
+            ..TensorShapeProto::default()
+        }),
+        ..type_proto::Tensor::default()
+    };
+    ValueInfoProto {
+        name: name.into(),
+        type_: MessageField::some(TypeProto {
+            value: Some(type_proto::Value::TensorType(tensor)),
+            ..TypeProto::default()
+        }),
+        ..ValueInfoProto::default()
     }
-    let mut tensor = Pb::default();
-    tensor.int(1, FLOAT);
-    tensor.msg(2, &shape);
-    let mut ty = Pb::default();
-    ty.msg(1, &tensor);
-    let mut vi = Pb::default();
-    vi.str(1, name);
-    vi.msg(2, &ty);
-    vi
 }
 
 /// `[out, in]` (PyTorch layout) → `[in, out]` values, for `x · W`.
@@ -319,40 +292,61 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     };
     g.op_into("Reshape", &[&reg, &box_shape], &[], "box_residuals");
 
-    let mut graph = Pb::default();
-    for n in &g.nodes {
-        graph.msg(1, n);
-    }
-    graph.str(2, "starnet");
-    for t in &g.initializers {
-        graph.msg(5, t);
-    }
-    graph.msg(11, &value_info("points", &[Err("C"), Err("P"), Ok(f)]));
-    graph.msg(11, &value_info("mask", &[Err("C"), Err("P")]));
-    if let Some(h) = cfg.lstm_hidden {
-        graph.msg(11, &value_info("center_valid", &[Err("C")]));
-        graph.msg(11, &value_info("state_h", &[Ok(1), Ok(h)]));
-        graph.msg(11, &value_info("state_c", &[Ok(1), Ok(h)]));
-    }
-    graph.msg(12, &value_info("cls_logits", &[Err("C"), Ok(a), Ok(k)]));
-    graph.msg(12, &value_info("box_residuals", &[Err("C"), Ok(a), Ok(7)]));
+    model_proto(g, io_values(cfg, f, a, k))
+}
+
+/// A graph's inputs and outputs.
+struct Io {
+    inputs: Vec<ValueInfoProto>,
+    outputs: Vec<ValueInfoProto>,
+}
+
+/// The graph's inputs and outputs for `cfg`, F features, A anchors, K classes.
+fn io_values(cfg: &StarNetConfig, f: usize, a: usize, k: usize) -> Io {
+    let mut inputs = vec![
+        value_info("points", &[Err("C"), Err("P"), Ok(f)]),
+        value_info("mask", &[Err("C"), Err("P")]),
+    ];
+    let mut outputs = vec![
+        value_info("cls_logits", &[Err("C"), Ok(a), Ok(k)]),
+        value_info("box_residuals", &[Err("C"), Ok(a), Ok(7)]),
+    ];
     if cfg.direction_classifier {
-        graph.msg(12, &value_info("dir_logits", &[Err("C"), Ok(a), Ok(2)]));
+        outputs.push(value_info("dir_logits", &[Err("C"), Ok(a), Ok(2)]));
     }
     if let Some(h) = cfg.lstm_hidden {
-        graph.msg(12, &value_info("state_h_out", &[Ok(1), Ok(h)]));
-        graph.msg(12, &value_info("state_c_out", &[Ok(1), Ok(h)]));
+        inputs.push(value_info("center_valid", &[Err("C")]));
+        inputs.push(value_info("state_h", &[Ok(1), Ok(h)]));
+        inputs.push(value_info("state_c", &[Ok(1), Ok(h)]));
+        outputs.push(value_info("state_h_out", &[Ok(1), Ok(h)]));
+        outputs.push(value_info("state_c_out", &[Ok(1), Ok(h)]));
     }
-    let mut opset = Pb::default();
-    opset.str(1, "");
-    opset.int(2, OPSET);
-    let mut model_pb = Pb::default();
-    model_pb.int(1, 7); // IR version 7 goes with opset 13
-    model_pb.str(2, "starnet");
-    model_pb.str(3, env!("CARGO_PKG_VERSION"));
-    model_pb.msg(7, &graph);
-    model_pb.msg(8, &opset);
-    model_pb.0
+    Io { inputs, outputs }
+}
+
+/// The serialized `ModelProto` around graph `g` with these inputs and outputs.
+fn model_proto(g: Graph, io: Io) -> Vec<u8> {
+    let graph = GraphProto {
+        node: g.nodes,
+        name: "starnet".into(),
+        initializer: g.initializers,
+        input: io.inputs,
+        output: io.outputs,
+        ..GraphProto::default()
+    };
+    let model = ModelProto {
+        ir_version: 7, // IR version 7 goes with opset 13
+        opset_import: vec![OperatorSetIdProto {
+            domain: String::new(),
+            version: OPSET,
+            ..OperatorSetIdProto::default()
+        }],
+        producer_name: "starnet".into(),
+        producer_version: env!("CARGO_PKG_VERSION").into(),
+        graph: MessageField::some(graph),
+        ..ModelProto::default()
+    };
+    model.write_to_bytes().expect("an in-memory ONNX model serialises")
 }
 
 /// The streaming LSTM's step over one slice, as `SliceLstm::forward` with one slice: the mean
@@ -418,14 +412,34 @@ mod tests {
     use super::*;
 
     #[test]
-    fn varints_follow_the_protobuf_encoding() {
-        let mut p = Pb::default();
-        p.varint(1);
-        p.varint(300);
-        p.int(1, -1);
-        assert_eq!(p.0[..3], [0x01, 0xac, 0x02]);
-        // A negative int64 is ten bytes after its key.
-        assert_eq!(p.0.len(), 3 + 1 + 10);
+    fn the_model_parses_back_with_its_inputs_outputs_and_opset() {
+        use crate::nn::StarNetConfig;
+        let cfg = StarNetConfig::small_car().with_lstm_hidden(Some(8));
+        let model = cfg.init(&crate::backend::default_device());
+        let parsed = ModelProto::parse_from_bytes(&onnx_model(&model, &cfg)).unwrap();
+        assert_eq!((parsed.ir_version, parsed.opset_import[0].version), (7, OPSET));
+        let names = |v: &[ValueInfoProto]| v.iter().map(|i| i.name.clone()).collect::<Vec<_>>();
+        let graph = parsed.graph.as_ref().unwrap();
+        assert_eq!(
+            names(&graph.input),
+            ["points", "mask", "center_valid", "state_h", "state_c"]
+        );
+        assert_eq!(
+            names(&graph.output),
+            ["cls_logits", "box_residuals", "state_h_out", "state_c_out"]
+        );
+        // Every node's inputs are graph inputs, initializers or earlier nodes' outputs.
+        let mut known: std::collections::BTreeSet<String> = names(&graph.input).into_iter().collect();
+        known.extend(graph.initializer.iter().map(|t| t.name.clone()));
+        for n in &graph.node {
+            assert!(
+                n.input.iter().all(|i| known.contains(i)),
+                "{} reads an unknown value",
+                n.name
+            );
+            known.extend(n.output.iter().cloned());
+        }
+        assert!(names(&graph.output).iter().all(|o| known.contains(o)));
     }
 
     #[test]
