@@ -1,78 +1,41 @@
-//! Maximum-weight bipartite matching (the Hungarian method with potentials, O(n²m)), as the
-//! Waymo detection metrics match predictions to ground truth.
+//! Maximum-weight bipartite matching, as the Waymo detection metrics match predictions to
+//! ground truth: `pathfinding`'s Hungarian method (Kuhn–Munkres) on the weights scaled to
+//! integers.
+
+use pathfinding::kuhn_munkres::kuhn_munkres;
+use pathfinding::matrix::Matrix;
+
+/// The largest scaled total weight: far inside `i64`, and 10⁻¹⁵ of the largest weight per unit,
+/// so only totals closer than that may be ordered otherwise than in floating point.
+const TOTAL_RESOLUTION: f64 = 1e15;
 
 /// Matches rows to columns of the `rows × cols` weights (row-major) to maximise the total weight
 /// of the chosen pairs, each row and column used at most once. Pairs of weight ≤ 0 are never
 /// returned. Returns `(row, col)` pairs sorted by row.
 pub fn max_weight_matching(weights: &[f64], rows: usize, cols: usize) -> Vec<(usize, usize)> {
     assert_eq!(weights.len(), rows * cols, "weights must be rows × cols");
-    if rows == 0 || cols == 0 {
+    let top = weights.iter().copied().fold(0.0, f64::max);
+    if rows == 0 || cols == 0 || top <= 0.0 {
         return Vec::new();
     }
-    // The potential method assigns every row of a rows ≤ cols problem: transpose if needed, and
-    // minimise the negated weights (a zero-weight pair is a free non-match).
-    let (n, m, transposed) = if rows <= cols {
-        (rows, cols, false)
-    } else {
-        (cols, rows, true)
-    };
-    let cost = |i: usize, j: usize| {
-        let w = if transposed {
+    // Kuhn–Munkres assigns every row of a rows ≤ cols problem: transpose if needed. A pair of
+    // weight 0 is a free non-match, dropped below.
+    let transposed = rows > cols;
+    let (n, m) = if transposed { (cols, rows) } else { (rows, cols) };
+    let scale = TOTAL_RESOLUTION / (top * n as f64);
+    let at = |i: usize, j: usize| {
+        if transposed {
             weights[j * cols + i]
         } else {
             weights[i * cols + j]
-        };
-        -w.max(0.0)
+        }
     };
-    // 1-based arrays as in the classic formulation; column 0 is the virtual start.
-    let (mut u, mut v) = (vec![0.0; n + 1], vec![0.0; m + 1]);
-    let mut owner = vec![0usize; m + 1];
-    let mut way = vec![0usize; m + 1];
-    for i in 1..=n {
-        owner[0] = i;
-        let mut j0 = 0;
-        let mut minv = vec![f64::INFINITY; m + 1];
-        let mut used = vec![false; m + 1];
-        loop {
-            used[j0] = true;
-            let i0 = owner[j0];
-            let (mut delta, mut j1) = (f64::INFINITY, 0);
-            for j in 1..=m {
-                if !used[j] {
-                    let cur = cost(i0 - 1, j - 1) - u[i0] - v[j];
-                    if cur < minv[j] {
-                        minv[j] = cur;
-                        way[j] = j0;
-                    }
-                    if minv[j] < delta {
-                        delta = minv[j];
-                        j1 = j;
-                    }
-                }
-            }
-            for j in 0..=m {
-                if used[j] {
-                    u[owner[j]] += delta;
-                    v[j] -= delta;
-                } else {
-                    minv[j] -= delta;
-                }
-            }
-            j0 = j1;
-            if owner[j0] == 0 {
-                break;
-            }
-        }
-        while j0 != 0 {
-            let j1 = way[j0];
-            owner[j0] = owner[j1];
-            j0 = j1;
-        }
-    }
-    let mut pairs: Vec<(usize, usize)> = (1..=m)
-        .filter(|&j| owner[j] != 0)
-        .map(|j| (owner[j] - 1, j - 1))
-        .filter(|&(i, j)| cost(i, j) < 0.0)
+    let scaled = Matrix::from_fn(n, m, |(i, j)| (at(i, j).max(0.0) * scale).round() as i64);
+    let (_, assignment) = kuhn_munkres(&scaled);
+    let mut pairs: Vec<(usize, usize)> = assignment
+        .into_iter()
+        .enumerate()
+        .filter(|&(i, j)| scaled[(i, j)] > 0)
         .map(|(i, j)| if transposed { (j, i) } else { (i, j) })
         .collect();
     pairs.sort_unstable();
