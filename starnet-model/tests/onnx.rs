@@ -31,6 +31,15 @@ fn random_model(cfg: &StarNetConfig) -> starnet_model::nn::StarNet {
     load_weights(cfg.init(&default_device()), &tensors).unwrap()
 }
 
+/// tract's optimised plan of the ONNX `bytes`, its f32 inputs of these shapes.
+fn tract_plan(bytes: &[u8], shapes: &[&[usize]]) -> TypedRunnableModel<TypedModel> {
+    let mut model = tract_onnx::onnx().model_for_read(&mut &bytes[..]).unwrap();
+    for (i, shape) in shapes.iter().enumerate() {
+        model = model.with_input_fact(i, f32::fact(shape.to_vec()).into()).unwrap();
+    }
+    model.into_optimized().unwrap().into_runnable().unwrap()
+}
+
 #[test]
 fn tract_matches_burn_for_several_budgets() {
     // With the direction classifier (its third output is checked too) and shared sizes.
@@ -50,33 +59,13 @@ fn check_budgets(cfg: &StarNetConfig) {
     let dev = default_device();
     for (c, p) in [(3, 5), (16, 32), (40, 8)] {
         // Points in the first ~3/4 of each neighbourhood; padded slots zero.
-        let real = |s: usize| s < p - p / 4;
-        let mut pts = Vec::with_capacity(c * p * 4);
-        let mut mask = Vec::with_capacity(c * p);
-        for i in 0..c * p {
-            let on = real(i % p);
-            mask.push(if on { 1.0f32 } else { 0.0 });
-            for f in 0..4 {
-                let v = ((i * 7 + f * 13) % 17) as f32 / 8.0 - 1.0;
-                pts.push(if on { v } else { 0.0 });
-            }
-        }
+        let (pts, mask, _) = slice_input(0, c, p);
         let burn = model.forward(ModelInput {
             points: BurnTensor::<1>::from_floats(pts.as_slice(), &dev).reshape([1, c, p, 4]),
             mask: BurnTensor::<1>::from_floats(mask.as_slice(), &dev).reshape([1, c, p]),
             center_valid: BurnTensor::ones([1, c], &dev),
         });
-        let plan = tract_onnx::onnx()
-            .model_for_read(&mut bytes.as_slice())
-            .unwrap()
-            .with_input_fact(0, f32::fact([c, p, 4]).into())
-            .unwrap()
-            .with_input_fact(1, f32::fact([c, p]).into())
-            .unwrap()
-            .into_optimized()
-            .unwrap()
-            .into_runnable()
-            .unwrap();
+        let plan = tract_plan(&bytes, &[&[c, p, 4], &[c, p]]);
         let inputs = tvec!(
             tract_ndarray::Array3::from_shape_vec((c, p, 4), pts.clone())
                 .unwrap()
@@ -135,23 +124,7 @@ fn tract_streams_the_lstm_slice_by_slice_as_burn_does() {
     let bytes = onnx_model(&model, &cfg);
     let dev = default_device();
     let (c, p, h) = (12, 8, 16);
-    let plan = tract_onnx::onnx()
-        .model_for_read(&mut bytes.as_slice())
-        .unwrap()
-        .with_input_fact(0, f32::fact([c, p, 4]).into())
-        .unwrap()
-        .with_input_fact(1, f32::fact([c, p]).into())
-        .unwrap()
-        .with_input_fact(2, f32::fact([c]).into())
-        .unwrap()
-        .with_input_fact(3, f32::fact([1, h]).into())
-        .unwrap()
-        .with_input_fact(4, f32::fact([1, h]).into())
-        .unwrap()
-        .into_optimized()
-        .unwrap()
-        .into_runnable()
-        .unwrap();
+    let plan = tract_plan(&bytes, &[&[c, p, 4], &[c, p], &[c], &[1, h], &[1, h]]);
     // The reset rule: zeros at the sweep's first slice; then each slice's state feeds the next.
     let (mut state_h, mut state_c) = (vec![0.0f32; h], vec![0.0f32; h]);
     let mut burn_state = None;
