@@ -167,10 +167,17 @@ fn draw_overlay(area: &Area, opts: &BevOptions, title: &str, has_preds: bool) ->
     ))?;
     let (w, h) = area.dim_in_pixel();
     let (w, h) = (w as i32, h as i32);
-    let title_font = (FAMILY, 17).into_font();
-    let title_w = area
+    // Long titles (augmented frames) drop to a smaller size rather than run off the image.
+    let mut title_font = (FAMILY, 17).into_font();
+    let mut title_w = area
         .estimate_text_size(title, &title_font.clone().into_text_style(area))?
         .0 as i32;
+    if title_w + 20 > w {
+        title_font = (FAMILY, 12).into_font();
+        title_w = area
+            .estimate_text_size(title, &title_font.clone().into_text_style(area))?
+            .0 as i32;
+    }
     area.draw(&Rectangle::new(
         [(0, 0), ((title_w + 20).max(260).min(w), 54)],
         rgb(BACKGROUND).filled(),
