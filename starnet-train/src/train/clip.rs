@@ -5,15 +5,15 @@ use burn::module::{Module, ModuleVisitor, Param};
 use burn::optim::GradientsParams;
 use burn::prelude::*;
 
-struct SquaredNorm<'a> {
+struct SquaredNorms<'a> {
     grads: &'a GradientsParams,
-    sum: f64,
+    squares: Vec<Tensor<1>>,
 }
 
-impl ModuleVisitor for SquaredNorm<'_> {
+impl ModuleVisitor for SquaredNorms<'_> {
     fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
         if let Some(g) = self.grads.get::<D>(param.id) {
-            self.sum += g.powi_scalar(2).sum().into_scalar::<f32>() as f64;
+            self.squares.push(g.powi_scalar(2).sum());
         }
     }
 }
@@ -31,18 +31,42 @@ impl ModuleVisitor for Scale<'_> {
     }
 }
 
-/// Scales the gradients of `module` so their global L2 norm is at most `max_norm`; returns the
-/// norm before clipping.
-pub fn clip_global_norm<M: Module>(module: &M, grads: &mut GradientsParams, max_norm: f32) -> f32 {
-    let mut n = SquaredNorm { grads, sum: 0.0 };
+/// Each parameter's squared gradient norm, `[1]` each in visiting order, left on the device:
+/// a caller reads them back with whatever else it needs from the step, in one transfer.
+pub fn squared_grad_norms<M: Module>(module: &M, grads: &GradientsParams) -> Vec<Tensor<1>> {
+    let mut n = SquaredNorms {
+        grads,
+        squares: Vec::new(),
+    };
     module.visit(&mut n);
-    let norm = n.sum.sqrt() as f32;
+    n.squares
+}
+
+/// The global L2 norm of per-parameter squared norms (summed in f64, in order).
+pub fn global_norm(squares: &[f32]) -> f32 {
+    squares.iter().map(|&s| f64::from(s)).sum::<f64>().sqrt() as f32
+}
+
+/// Scales the gradients of `module` so that their global norm, `norm`, becomes at most
+/// `max_norm` (a non-finite norm leaves them).
+pub fn scale_to_norm<M: Module>(module: &M, grads: &mut GradientsParams, norm: f32, max_norm: f32) {
     if norm > max_norm && norm.is_finite() {
         module.visit(&mut Scale {
             grads,
             factor: max_norm / norm,
         });
     }
+}
+
+/// Scales the gradients of `module` so their global L2 norm is at most `max_norm`; returns the
+/// norm before clipping.
+pub fn clip_global_norm<M: Module>(module: &M, grads: &mut GradientsParams, max_norm: f32) -> f32 {
+    let squares = squared_grad_norms(module, grads);
+    let norm = match squares.is_empty() {
+        true => 0.0,
+        false => global_norm(&Tensor::cat(squares, 0).into_data().iter::<f32>().collect::<Vec<_>>()),
+    };
+    scale_to_norm(module, grads, norm, max_norm);
     norm
 }
 
@@ -62,11 +86,10 @@ mod tests {
         let mut grads = GradientsParams::from_grads(loss.backward(), &l);
         let norm = clip_global_norm(&l, &mut grads, 5.0);
         assert!((norm - 2600f32.sqrt()).abs() < 1e-3, "{norm}");
-        let mut after = SquaredNorm {
-            grads: &grads,
-            sum: 0.0,
-        };
-        l.visit(&mut after);
-        assert!((after.sum.sqrt() - 5.0).abs() < 1e-4, "{}", after.sum.sqrt());
+        let after: Vec<f32> = squared_grad_norms(&l, &grads)
+            .into_iter()
+            .map(|t| t.into_scalar::<f32>())
+            .collect();
+        assert!((global_norm(&after) - 5.0).abs() < 1e-4, "{after:?}");
     }
 }

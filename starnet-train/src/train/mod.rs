@@ -43,7 +43,7 @@ pub use checkpoint::{
     Restored, TrainState, latest_checkpoint, load_checkpoint, load_model, model_from_bytes, parse_state,
     save_checkpoint,
 };
-pub use clip::clip_global_norm;
+pub use clip::{clip_global_norm, global_norm, scale_to_norm, squared_grad_norms};
 pub use data::{TrainItem, ensure_data, paste_database, slices_at, train_item, train_loader};
 pub use ema::WeightEma;
 pub use evaluate::{EvalOptions, EvalReport, evaluate, frame_seed};

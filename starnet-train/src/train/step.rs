@@ -2,7 +2,7 @@
 //! step on a batch of prepared sweeps — the piece a custom training loop calls.
 
 use super::checkpoint::{Restored, TrainState, load_checkpoint, save_checkpoint};
-use super::clip::clip_global_norm;
+use super::clip::{global_norm, scale_to_norm, squared_grad_norms};
 use super::data::TrainItem;
 use super::ema::WeightEma;
 use crate::config::ExperimentConfig;
@@ -10,7 +10,7 @@ use crate::{Result, TrainError};
 use burn::module::Module;
 use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, GradientsParams};
-use burn::prelude::Device;
+use burn::prelude::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 use starnet_model::batch::make_batch;
 use starnet_model::loss::{LossConfig, starnet_loss};
@@ -105,8 +105,8 @@ impl Trainer {
     }
 
     /// One step at learning rate `lr` on `sweeps` (each a sequence of slices, all of one
-    /// length; one slice each unless streaming): forward, loss, backward, clipping, Adam, EMA.
-    /// A non-finite loss stops before the weights change.
+    /// length; one slice each unless streaming): forward, loss, backward, clipping, Adam, EMA,
+    /// with one read back to the host. A non-finite loss stops before the weights change.
     pub fn step(&mut self, sweeps: &[Vec<TrainItem>], lr: f64) -> Result<StepLosses> {
         // The whole step on the step's threads: its operations' parallel parts then stay
         // there instead of each being handed over from this thread.
@@ -122,25 +122,39 @@ impl Trainer {
         let b = make_batch(&frames, &targets, self.num_classes, &self.device);
         let (out, _) = self.model().forward_slices(b.input, slices, None);
         let terms = starnet_loss(&out, &b.targets, &self.loss);
-        let scalar = |t: &burn::Tensor<1>| t.clone().into_scalar::<f32>();
-        let mut losses = StepLosses {
-            loss: scalar(&terms.total),
-            classification: scalar(&terms.classification),
-            location: scalar(&terms.location),
-            dimension: scalar(&terms.dimension),
-            rotation: scalar(&terms.rotation),
-            direction: scalar(&terms.direction),
-            grad_norm: 0.0,
+        let model = self.model.take().expect("the model is only taken within a step");
+        let mut grads = GradientsParams::from_grads(terms.total.backward(), &model);
+        // One read back per step (a GPU is not stalled once per term and parameter): the loss
+        // terms, then each parameter's squared gradient norm.
+        let terms = [
+            terms.total,
+            terms.classification,
+            terms.location,
+            terms.dimension,
+            terms.rotation,
+            terms.direction,
+        ];
+        // The gradients live on the inner (non-autodiff) device; so do the terms' values.
+        let mut parts: Vec<Tensor<1>> = terms.into_iter().map(Tensor::inner).collect();
+        parts.extend(squared_grad_norms(&model, &grads));
+        let host: Vec<f32> = Tensor::cat(parts, 0).into_data().iter::<f32>().collect();
+        let losses = StepLosses {
+            loss: host[0],
+            classification: host[1],
+            location: host[2],
+            dimension: host[3],
+            rotation: host[4],
+            direction: host[5],
+            grad_norm: global_norm(&host[6..]),
         };
         if !losses.loss.is_finite() {
+            self.model = Some(model);
             return Err(TrainError::NonFiniteLoss {
                 step: self.state.step,
                 value: losses.loss,
             });
         }
-        let model = self.model.take().expect("the model is only taken within a step");
-        let mut grads = GradientsParams::from_grads(terms.total.backward(), &model);
-        losses.grad_norm = clip_global_norm(&model, &mut grads, self.grad_clip_norm);
+        scale_to_norm(&model, &mut grads, losses.grad_norm, self.grad_clip_norm);
         let model = self.model.insert(self.optim.step(lr, model, grads));
         self.state.step += 1;
         if let Some(e) = self.ema.as_mut() {
