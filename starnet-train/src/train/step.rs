@@ -106,7 +106,9 @@ impl Trainer {
 
     /// One step at learning rate `lr` on `sweeps` (each a sequence of slices, all of one
     /// length; one slice each unless streaming): forward, loss, backward, clipping, Adam, EMA,
-    /// with one read back to the host. A non-finite loss stops before the weights change.
+    /// with one read back to the host. A non-finite loss stops before the weights change; the
+    /// BatchNorm running statistics the forward updated are not rolled back (`starnet train`
+    /// ends there and keeps the last good checkpoint).
     pub fn step(&mut self, sweeps: &[Vec<TrainItem>], lr: f64) -> Result<StepLosses> {
         // The whole step on the step's threads: its operations' parallel parts then stay
         // there instead of each being handed over from this thread.
@@ -179,5 +181,62 @@ impl Trainer {
     /// Writes the whole state as checkpoint `dir/name` (atomically).
     pub fn save(&self, dir: &Path, name: &str) -> Result<PathBuf> {
         save_checkpoint(dir, name, self.model(), &self.optim, self.ema.as_ref(), &self.state)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::load_config;
+    use rand::SeedableRng;
+    use starnet_data::sampling::prepare_frame;
+    use starnet_data::sim::{SynthConfig, simulate_scene_frame};
+    use starnet_model::batch::frame_targets;
+    use starnet_model::export::named_tensors;
+
+    /// A simulated frame prepared as the loader prepares it (no augmentation).
+    fn item(cfg: &ExperimentConfig) -> TrainItem {
+        let calib = starnet_data::kitti::Calib::kitti_000000();
+        let frame = simulate_scene_frame(1, 0, &SynthConfig::default(), &calib).into_frame("000001", calib);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        let frame = prepare_frame(&frame, &cfg.pipeline, None, &[], &mut rng);
+        TrainItem {
+            targets: frame_targets(&frame, &cfg.model.anchors, &cfg.data.classes, &cfg.assign),
+            frame,
+        }
+    }
+
+    #[test]
+    fn a_step_reports_its_terms_and_a_non_finite_loss_moves_no_weight() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/quickstart.toml");
+        let cfg = load_config(&path, &["train.step_threads=1".into()]).unwrap();
+        let device = starnet_model::backend::default_device().autodiff();
+        let mut trainer = Trainer::start(&cfg, None, &device).unwrap();
+        let good = item(&cfg);
+        let losses = trainer.step(&[vec![good.clone()]], 1e-3).unwrap();
+        // The total read back is the weighted sum of the terms read back with it.
+        let w = &cfg.loss;
+        let localization = losses.location as f64 * w.location_weight
+            + losses.dimension as f64 * w.dimension_weight
+            + losses.rotation as f64 * w.rotation_weight;
+        let total = localization * w.localization_weight
+            + losses.classification as f64 * w.classification_weight
+            + losses.direction as f64 * w.direction_weight;
+        assert!((losses.loss as f64 - total).abs() < 1e-5, "{losses:?}");
+        assert!(losses.grad_norm > 0.0 && trainer.state.step == 1);
+        // A NaN in the input: the step fails, naming the step, and no weight moves (the
+        // forward's BatchNorm running statistics are not rolled back: see `step`).
+        let mut bad = good;
+        bad.frame.neighbourhoods.features[0] = f32::NAN;
+        let weights = |t: &Trainer| {
+            let mut w = named_tensors(t.model());
+            w.retain(|t| !t.name.ends_with("running_mean") && !t.name.ends_with("running_var"));
+            w
+        };
+        let before = weights(&trainer);
+        let err = trainer.step(&[vec![bad]], 1e-3).unwrap_err();
+        assert!(matches!(err, TrainError::NonFiniteLoss { step: 1, .. }), "{err}");
+        assert_eq!(weights(&trainer), before);
+        assert_eq!(trainer.state.step, 1);
     }
 }
