@@ -55,6 +55,13 @@ pub struct StarNetBlock {
     fused: bool,
 }
 
+impl StarNetBlock {
+    /// Its BatchNorms, in order.
+    pub fn batch_norms(&self) -> [&MaskedBatchNorm; 2] {
+        [&self.bn1, &self.bn2]
+    }
+}
+
 impl StarNetBlockConfig {
     /// Builds the block.
     pub fn init(&self, device: &Device) -> StarNetBlock {

@@ -2,7 +2,7 @@
 //! StarNet blocks, and a readout concatenating the masked mean over P of fc0's output and of
 //! every block's output into one cell feature per center.
 
-use super::{StarNetBlock, StarNetBlockConfig, linear};
+use super::{MaskedBatchNorm, StarNetBlock, StarNetBlockConfig, linear};
 use burn::module::Module;
 use burn::nn::Linear;
 use burn::prelude::*;
@@ -69,6 +69,11 @@ pub struct Featurizer {
 }
 
 impl Featurizer {
+    /// The blocks' BatchNorms, in order.
+    pub fn batch_norms(&self) -> Vec<&MaskedBatchNorm> {
+        self.blocks.iter().flat_map(StarNetBlock::batch_norms).collect()
+    }
+
     /// # Shapes
     /// - `points`: `[B, C, P, F]`
     /// - `mask`: `[B, C, P]` (1.0 real, 0.0 padded)

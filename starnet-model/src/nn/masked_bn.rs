@@ -82,7 +82,32 @@ impl MaskedBatchNorm {
     }
 }
 
+/// A BatchNorm's running mean and variance, `[D]` each.
+#[derive(Debug, Clone)]
+pub struct RunningStats {
+    /// Running mean.
+    pub mean: Tensor<1>,
+    /// Running (biased) variance.
+    pub var: Tensor<1>,
+}
+
 impl MaskedBatchNorm {
+    /// The running statistics now.
+    pub fn running(&self) -> RunningStats {
+        RunningStats {
+            mean: self.running_mean.value_sync(),
+            var: self.running_var.value_sync(),
+        }
+    }
+
+    /// Sets the running statistics (e.g. back to those [`Self::running`] returned).
+    pub fn set_running(&self, stats: RunningStats) {
+        for (state, value) in [(&self.running_mean, stats.mean), (&self.running_var, stats.var)] {
+            state.update(value);
+            let _ = state.value_sync();
+        }
+    }
+
     /// Moves the running statistics `momentum` of the way towards a batch's mean and biased
     /// variance (`[D]` each; detached here).
     pub fn update_running(&self, mean: Tensor<1>, var: Tensor<1>) {

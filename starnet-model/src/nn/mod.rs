@@ -10,7 +10,7 @@ mod starnet;
 
 pub use block::{StarNetBlock, StarNetBlockConfig, masked_max, masked_mean};
 pub use featurizer::{Featurizer, FeaturizerConfig};
-pub use masked_bn::{MaskedBatchNorm, MaskedBatchNormConfig};
+pub use masked_bn::{MaskedBatchNorm, MaskedBatchNormConfig, RunningStats};
 pub use slice_lstm::{SliceLstm, SliceLstmConfig, SliceState};
 pub use starnet::{ModelInput, ModelOutput, StarNet, StarNetConfig};
 

@@ -7,8 +7,8 @@
 //! ([`StarNet::forward_slices`]); without it every center is independent of the others.
 
 use super::{
-    Featurizer, FeaturizerConfig, MaskedBatchNorm, MaskedBatchNormConfig, SliceLstm, SliceLstmConfig, SliceState,
-    linear,
+    Featurizer, FeaturizerConfig, MaskedBatchNorm, MaskedBatchNormConfig, RunningStats, SliceLstm, SliceLstmConfig,
+    SliceState, linear,
 };
 use burn::module::{Module, Param};
 use burn::nn::Linear;
@@ -213,6 +213,25 @@ impl StarNet {
             box_residuals: reg.reshape([b, c, offsets * per, 7]),
             dir_logits: dir.map(|d| d.reshape([b, c, offsets * per, 2])),
         }
+    }
+
+    /// Every BatchNorm's running statistics, in order: a training step that must be undone
+    /// restores them with [`Self::restore_running_stats`].
+    pub fn running_stats(&self) -> Vec<RunningStats> {
+        self.batch_norms().into_iter().map(MaskedBatchNorm::running).collect()
+    }
+
+    /// Sets every BatchNorm's running statistics to `stats` ([`Self::running_stats`]' order).
+    pub fn restore_running_stats(&self, stats: Vec<RunningStats>) {
+        for (bn, s) in self.batch_norms().into_iter().zip(stats) {
+            bn.set_running(s);
+        }
+    }
+
+    fn batch_norms(&self) -> Vec<&MaskedBatchNorm> {
+        let mut all = self.featurizer.batch_norms();
+        all.push(&self.proj_bn);
+        all
     }
 
     /// Whether the model has the direction classifier.

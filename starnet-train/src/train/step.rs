@@ -13,7 +13,7 @@ use burn::optim::{AdamConfig, GradientsParams};
 use burn::prelude::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 use starnet_model::batch::make_batch;
-use starnet_model::loss::{LossConfig, starnet_loss};
+use starnet_model::loss::{LossConfig, LossTerms, starnet_loss};
 use starnet_model::nn::StarNet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -106,9 +106,8 @@ impl Trainer {
 
     /// One step at learning rate `lr` on `sweeps` (each a sequence of slices, all of one
     /// length; one slice each unless streaming): forward, loss, backward, clipping, Adam, EMA,
-    /// with one read back to the host. A non-finite loss stops before the weights change; the
-    /// BatchNorm running statistics the forward updated are not rolled back (`starnet train`
-    /// ends there and keeps the last good checkpoint).
+    /// with one read back to the host. A non-finite loss changes nothing: it stops before the
+    /// weights change, and the BatchNorm running statistics the forward moved are put back.
     pub fn step(&mut self, sweeps: &[Vec<TrainItem>], lr: f64) -> Result<StepLosses> {
         // The whole step on the step's threads: its operations' parallel parts then stay
         // there instead of each being handed over from this thread.
@@ -122,34 +121,15 @@ impl Trainer {
         let frames: Vec<_> = sweeps.iter().flatten().map(|i| &i.frame).collect();
         let targets: Vec<_> = sweeps.iter().flatten().map(|i| &i.targets).collect();
         let b = make_batch(&frames, &targets, self.num_classes, &self.device);
+        // The forward moves the BatchNorm running statistics; a failed step puts them back.
+        let running = self.model().running_stats();
         let (out, _) = self.model().forward_slices(b.input, slices, None);
         let terms = starnet_loss(&out, &b.targets, &self.loss);
         let model = self.model.take().expect("the model is only taken within a step");
         let mut grads = GradientsParams::from_grads(terms.total.backward(), &model);
-        // One read back per step (a GPU is not stalled once per term and parameter): the loss
-        // terms, then each parameter's squared gradient norm.
-        let terms = [
-            terms.total,
-            terms.classification,
-            terms.location,
-            terms.dimension,
-            terms.rotation,
-            terms.direction,
-        ];
-        // The gradients live on the inner (non-autodiff) device; so do the terms' values.
-        let mut parts: Vec<Tensor<1>> = terms.into_iter().map(Tensor::inner).collect();
-        parts.extend(squared_grad_norms(&model, &grads));
-        let host: Vec<f32> = Tensor::cat(parts, 0).into_data().iter::<f32>().collect();
-        let losses = StepLosses {
-            loss: host[0],
-            classification: host[1],
-            location: host[2],
-            dimension: host[3],
-            rotation: host[4],
-            direction: host[5],
-            grad_norm: global_norm(&host[6..]),
-        };
+        let losses = read_back(terms, &model, &grads);
         if !losses.loss.is_finite() {
+            model.restore_running_stats(running);
             self.model = Some(model);
             return Err(TrainError::NonFiniteLoss {
                 step: self.state.step,
@@ -184,6 +164,32 @@ impl Trainer {
     }
 }
 
+/// The step's losses and gradient norm in one read back to the host (a GPU is not stalled
+/// once per term and parameter): the loss terms, then each parameter's squared gradient norm.
+fn read_back(terms: LossTerms, model: &StarNet, grads: &GradientsParams) -> StepLosses {
+    let terms = [
+        terms.total,
+        terms.classification,
+        terms.location,
+        terms.dimension,
+        terms.rotation,
+        terms.direction,
+    ];
+    // The gradients live on the inner (non-autodiff) device; so do the terms' values.
+    let mut parts: Vec<Tensor<1>> = terms.into_iter().map(Tensor::inner).collect();
+    parts.extend(squared_grad_norms(model, grads));
+    let host: Vec<f32> = Tensor::cat(parts, 0).into_data().iter::<f32>().collect();
+    StepLosses {
+        loss: host[0],
+        classification: host[1],
+        location: host[2],
+        dimension: host[3],
+        rotation: host[4],
+        direction: host[5],
+        grad_norm: global_norm(&host[6..]),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -207,7 +213,7 @@ mod tests {
     }
 
     #[test]
-    fn a_step_reports_its_terms_and_a_non_finite_loss_moves_no_weight() {
+    fn a_step_reports_its_terms_and_a_non_finite_loss_changes_nothing() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/quickstart.toml");
         let cfg = load_config(&path, &["train.step_threads=1".into()]).unwrap();
         let device = starnet_model::backend::default_device().autodiff();
@@ -224,19 +230,14 @@ mod tests {
             + losses.direction as f64 * w.direction_weight;
         assert!((losses.loss as f64 - total).abs() < 1e-5, "{losses:?}");
         assert!(losses.grad_norm > 0.0 && trainer.state.step == 1);
-        // A NaN in the input: the step fails, naming the step, and no weight moves (the
-        // forward's BatchNorm running statistics are not rolled back: see `step`).
+        // A NaN in the input: the step fails, naming the step, and nothing moves, the
+        // BatchNorm running statistics included.
         let mut bad = good;
         bad.frame.neighbourhoods.features[0] = f32::NAN;
-        let weights = |t: &Trainer| {
-            let mut w = named_tensors(t.model());
-            w.retain(|t| !t.name.ends_with("running_mean") && !t.name.ends_with("running_var"));
-            w
-        };
-        let before = weights(&trainer);
+        let before = named_tensors(trainer.model());
         let err = trainer.step(&[vec![bad]], 1e-3).unwrap_err();
         assert!(matches!(err, TrainError::NonFiniteLoss { step: 1, .. }), "{err}");
-        assert_eq!(weights(&trainer), before);
+        assert_eq!(named_tensors(trainer.model()), before);
         assert_eq!(trainer.state.step, 1);
     }
 }
