@@ -9,6 +9,8 @@
 #   ROUNDS=3 SECONDS_PER_RUN=90 scripts/train_speed.sh a=bin1 b=bin2 -- --set train.workers=2
 #   ENV="RAYON_NUM_THREADS=1" scripts/train_speed.sh new=target/debug/starnet
 #   CONFIG=configs/sim-car-paper.toml scripts/train_speed.sh new=target/debug/starnet
+#   scripts/train_speed.sh old=/tmp/starnet-old@/tmp/old-quickstart.toml new=target/release/starnet
+#     (label=binary@config: that binary trains that config, e.g. an old binary its own tree's)
 #   cp -r data/sim /dev/shm/ && DATA=/dev/shm/sim scripts/train_speed.sh ...
 #
 # This VM's memory reclaim evicts idle page cache within minutes, and a run whose frames come from
@@ -32,11 +34,12 @@ mkdir -p runs/speed
 thread_ticks() { for t in /proc/"$1"/task/*; do echo "$(cat "$t"/comm) $(awk '{print $14 + $15}' "$t"/stat)"; done; }
 
 one_run() {
-  local label=$1 bin=$2 dir=$3
+  local label=$1 bin=${2%%@*} dir=$3 config=${CONFIG:-configs/quickstart.toml}
+  [[ $2 == *@* ]] && config=${2#*@}
   # The VM's memory reclaim evicts idle page cache: read the frames back in first.
   cat "$data"/training/velodyne/*.bin "$data"/training/label_2/*.txt > /dev/null
   rm -rf "$dir"
-  env ${ENV:-} "$bin" train --config "${CONFIG:-configs/quickstart.toml}" --run "$dir" \
+  env ${ENV:-} "$bin" train --config "$config" --run "$dir" \
     --set "data.root=\"$data\"" "${extra[@]}" > "$dir.out" 2>&1 &
   local pid=$!
   sleep 35

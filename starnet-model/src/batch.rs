@@ -7,6 +7,7 @@ use crate::loss::LossTargets;
 use crate::nms::{Detection, NmsConfig, nms};
 use crate::nn::{ModelInput, ModelOutput};
 use burn::prelude::*;
+use burn::tensor::TensorData;
 use starnet_data::Box3d;
 use starnet_data::kitti::ObjectClass;
 use starnet_data::sampling::{AnchorGrid, NUM_FEATURES, PreparedFrame};
@@ -49,6 +50,20 @@ pub fn frame_targets(
     )
 }
 
+/// A tensor of `shape` that takes `values` over (no copy).
+fn tensor<const D: usize>(values: Vec<f32>, shape: [usize; D], device: &Device) -> Tensor<D> {
+    Tensor::from_data(TensorData::new(values, shape), device)
+}
+
+/// Every item's `part`, mapped by `f` and laid end to end, in one allocation of the final size.
+fn stacked<T, U: Copy>(items: &[&T], part: impl Fn(&T) -> &[U], f: impl Fn(U) -> f32) -> Vec<f32> {
+    let mut out = Vec::with_capacity(items.iter().map(|i| part(i).len()).sum());
+    for i in items {
+        out.extend(part(i).iter().map(|&u| f(u)));
+    }
+    out
+}
+
 /// Stacks frames (all with the same C and P) into model inputs on `device`.
 pub fn make_input(frames: &[&PreparedFrame], device: &Device) -> ModelInput {
     let b = frames.len();
@@ -56,29 +71,12 @@ pub fn make_input(frames: &[&PreparedFrame], device: &Device) -> ModelInput {
         frames[0].neighbourhoods.num_centers,
         frames[0].neighbourhoods.num_points,
     );
-    let floats = |v: Vec<f32>| Tensor::<1>::from_floats(v.as_slice(), device);
-    let points = floats(
-        frames
-            .iter()
-            .flat_map(|f| f.neighbourhoods.features.iter().copied())
-            .collect(),
-    );
-    let mask = floats(
-        frames
-            .iter()
-            .flat_map(|f| f.neighbourhoods.mask.iter().map(|m| *m as u8 as f32))
-            .collect(),
-    );
-    let valid = floats(
-        frames
-            .iter()
-            .flat_map(|f| f.centers.valid.iter().map(|v| *v as u8 as f32))
-            .collect(),
-    );
+    let flag = |v: bool| v as u8 as f32;
+    let points = stacked(frames, |f| &f.neighbourhoods.features, |v| v);
     ModelInput {
-        points: points.reshape([b, c, p, NUM_FEATURES]),
-        mask: mask.reshape([b, c, p]),
-        center_valid: valid.reshape([b, c]),
+        points: tensor(points, [b, c, p, NUM_FEATURES], device),
+        mask: tensor(stacked(frames, |f| &f.neighbourhoods.mask, flag), [b, c, p], device),
+        center_valid: tensor(stacked(frames, |f| &f.centers.valid, flag), [b, c], device),
     }
 }
 
@@ -92,35 +90,23 @@ pub fn make_batch(
     let b = frames.len();
     let c = frames[0].neighbourhoods.num_centers;
     let a = targets[0].class.len() / c;
-    let floats = |v: Vec<f32>| Tensor::<1>::from_floats(v.as_slice(), device);
-    let one_hot: Vec<f32> = targets
-        .iter()
-        .flat_map(|t| {
-            t.class
-                .iter()
-                .flat_map(move |&k| (0..num_classes).map(move |j| (k == j as i32) as u8 as f32))
-        })
-        .collect();
+    let mut one_hot = vec![0.0; b * c * a * num_classes];
+    let classes = targets.iter().flat_map(|t| &t.class);
+    for (row, &k) in one_hot.chunks_mut(num_classes.max(1)).zip(classes) {
+        if let Some(hot) = usize::try_from(k).ok().and_then(|k| row.get_mut(k)) {
+            *hot = 1.0;
+        }
+    }
+    let residuals = stacked(targets, |t| t.residuals.as_flattened(), |v| v);
+    let per_anchor = |v: Vec<f32>| tensor(v, [b, c, a], device);
     StarNetBatch {
         input: make_input(frames, device),
         targets: LossTargets {
-            classes: floats(one_hot).reshape([b, c, a, num_classes]),
-            cls_weight: floats(targets.iter().flat_map(|t| t.cls_weight.iter().copied()).collect()).reshape([b, c, a]),
-            residuals: floats(
-                targets
-                    .iter()
-                    .flat_map(|t| t.residuals.iter().flatten().copied())
-                    .collect(),
-            )
-            .reshape([b, c, a, 7]),
-            reg_weight: floats(targets.iter().flat_map(|t| t.reg_weight.iter().copied()).collect()).reshape([b, c, a]),
-            direction: floats(
-                targets
-                    .iter()
-                    .flat_map(|t| t.direction.iter().map(|&d| f32::from(d)))
-                    .collect(),
-            )
-            .reshape([b, c, a]),
+            classes: tensor(one_hot, [b, c, a, num_classes], device),
+            cls_weight: per_anchor(stacked(targets, |t| &t.cls_weight, |v| v)),
+            residuals: tensor(residuals, [b, c, a, 7], device),
+            reg_weight: per_anchor(stacked(targets, |t| &t.reg_weight, |v| v)),
+            direction: per_anchor(stacked(targets, |t| &t.direction, f32::from)),
         },
     }
 }
@@ -185,4 +171,75 @@ pub fn decode_detections(
         }
     }
     dets
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backend::default_device;
+    use starnet_data::sampling::{Centers, Neighbourhoods};
+
+    /// A frame of two centers with two point slots each; feature values count up from `base`.
+    fn frame(base: f32) -> PreparedFrame {
+        PreparedFrame {
+            id: "000000".into(),
+            points: Vec::new(),
+            centers: Centers {
+                xyz: vec![[0.0; 3]; 2],
+                valid: vec![true, false],
+                num_seeded: 0,
+            },
+            neighbourhoods: Neighbourhoods {
+                num_centers: 2,
+                num_points: 2,
+                features: (0..2 * 2 * NUM_FEATURES).map(|i| base + i as f32).collect(),
+                mask: vec![true, false, true, true],
+                indices: vec![0, u32::MAX, 1, 2],
+            },
+            boxes: Vec::new(),
+            classes: Vec::new(),
+            draw: None,
+        }
+    }
+
+    /// Two anchors per center; anchor `i` of the frame has class `class[i]`.
+    fn targets(class: [i32; 4]) -> AnchorTargets {
+        AnchorTargets {
+            class: class.to_vec(),
+            matched: class.to_vec(),
+            cls_weight: vec![1.0, 0.5, 0.0, 1.0],
+            reg_weight: class.iter().map(|&k| f32::from(k >= 0)).collect(),
+            residuals: (0..4).map(|i| [i as f32; 7]).collect(),
+            direction: vec![0, 1, 1, 0],
+        }
+    }
+
+    fn values<const D: usize>(t: Tensor<D>) -> (Vec<usize>, Vec<f32>) {
+        (t.dims().to_vec(), t.into_data().iter::<f32>().collect())
+    }
+
+    #[test]
+    fn a_batch_stacks_frames_in_order_with_one_hot_classes() {
+        let (f0, f1) = (frame(0.0), frame(100.0));
+        let (t0, t1) = (targets([-1, 0, 1, -1]), targets([1, 1, -1, 0]));
+        let b = make_batch(&[&f0, &f1], &[&t0, &t1], 2, &default_device());
+        let (dims, points) = values(b.input.points);
+        assert_eq!(dims, [2, 2, 2, NUM_FEATURES]);
+        assert_eq!(points[..3], [0.0, 1.0, 2.0]);
+        assert_eq!(points[16..19], [100.0, 101.0, 102.0]);
+        assert_eq!(values(b.input.mask).1, [1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0]);
+        assert_eq!(values(b.input.center_valid), (vec![2, 2], vec![1.0, 0.0, 1.0, 0.0]));
+        let (dims, classes) = values(b.targets.classes);
+        assert_eq!(dims, [2, 2, 2, 2]);
+        #[rustfmt::skip]
+        let want = [0.0, 0.0,  1.0, 0.0,  0.0, 1.0,  0.0, 0.0,
+                    0.0, 1.0,  0.0, 1.0,  0.0, 0.0,  1.0, 0.0];
+        assert_eq!(classes, want);
+        assert_eq!(values(b.targets.cls_weight).1[4..], [1.0, 0.5, 0.0, 1.0]);
+        assert_eq!(values(b.targets.reg_weight).1, [0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0]);
+        assert_eq!(values(b.targets.direction).1, [0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0]);
+        let (dims, residuals) = values(b.targets.residuals);
+        assert_eq!(dims, [2, 2, 2, 7]);
+        assert_eq!((residuals[7], residuals[27], residuals[28]), (1.0, 3.0, 0.0));
+    }
 }

@@ -10,7 +10,11 @@ mod transforms;
 
 pub use gtdb::{GTDB_CAPTURE_MARGIN, GTDB_VERSION, GtDatabase, GtEntry};
 pub use paste::{DbPasteConfig, paste_from_database};
-pub use transforms::{Scene, flip_y, rotate_box, rotate_z, scale, shift_z};
+pub use transforms::{Scene, flip_y, rotate_box, rotate_boxes, rotate_z, scale, shift_z};
+
+/// Grid cell (m) for finding the points near a box: a car's bird's-eye circle (r ≈ 2.2 m)
+/// spans about 3 × 3 cells.
+const NEAR_CELL_M: f32 = 2.0;
 
 use crate::Point;
 use crate::settings::{Checked, InvalidSetting, non_negative, ordered_range, positive, within};
@@ -194,11 +198,7 @@ pub fn augment(scene: &mut Scene, cfg: &AugmentConfig, db: Option<&GtDatabase>, 
     let box_rotations: Vec<f32> = (0..scene.boxes.len())
         .map(|_| uniform(&cfg.box_rotation, rng))
         .collect();
-    for (i, &a) in box_rotations.iter().enumerate() {
-        if a != 0.0 {
-            rotate_box(scene, i, a, cfg.object_margin);
-        }
-    }
+    rotate_boxes(scene, &box_rotations, cfg.object_margin);
     let flipped = cfg.flip_y && rng.random::<f32>() < cfg.flip_probability;
     if flipped {
         flip_y(scene);
@@ -239,9 +239,27 @@ pub fn ring_dropout(points: &[Point], width: f32, rng: &mut impl Rng) -> (Vec<Po
         (p[2] / r).clamp(-1.0, 1.0).acos()
     };
     let centre = incl(&points[rng.random_range(0..points.len())]);
+    // acos falls from π to 0 over [−1, 1]: |acos(c) − centre| ≥ width / 2 is c ≤ cos(centre +
+    // width / 2) or c ≥ cos(centre − width / 2), each side only where its angle is in [0, π].
+    // Comparing cosines spares an acos per point.
+    let half = 0.5 * width;
+    let below = if centre + half <= PI {
+        (centre + half).cos()
+    } else {
+        f32::NEG_INFINITY
+    };
+    let above = if centre - half >= 0.0 {
+        (centre - half).cos()
+    } else {
+        f32::INFINITY
+    };
     let kept = points
         .iter()
-        .filter(|p| (incl(p) - centre).abs() >= 0.5 * width)
+        .filter(|p| {
+            let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt().max(1e-6);
+            let c = (p[2] / r).clamp(-1.0, 1.0);
+            c <= below || c >= above
+        })
         .copied()
         .collect();
     (kept, centre)
@@ -348,5 +366,34 @@ mod tests {
             .collect();
         let (kept, _) = ring_dropout(&pts, 0.003, &mut rng);
         assert_eq!(pts.len() - kept.len(), 100, "exactly one ring of 100 points");
+    }
+
+    #[test]
+    fn ring_dropout_keeps_what_the_inclination_rule_keeps() {
+        // Every direction, and bands reaching past 0 and π (widths up to 2).
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+        let pts: Vec<Point> = (0..4000)
+            .map(|_| std::array::from_fn(|k| if k < 3 { rng.random_range(-5.0..5.0) } else { 0.0 }))
+            .collect();
+        let incl = |p: &Point| {
+            (p[2] / (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+                .clamp(-1.0, 1.0)
+                .acos()
+        };
+        for width in [0.0, 0.03, 0.5, 2.0] {
+            for seed in 0..20 {
+                let (kept, centre) = ring_dropout(&pts, width, &mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+                let mut kept = kept.into_iter().peekable();
+                for p in &pts {
+                    let off = (incl(p) - centre).abs() - 0.5 * width;
+                    let was_kept = kept.next_if_eq(p).is_some();
+                    // Within rounding of the band's edge either answer is the rule's.
+                    assert!(
+                        off.abs() < 1e-5 || was_kept == (off >= 0.0),
+                        "width {width}: {p:?} off {off}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -3,9 +3,11 @@
 //! as needed to reach the class's target, skipping any whose footprint would touch an existing
 //! or already-pasted box (rotated BEV IoU must be exactly 0).
 
+use super::NEAR_CELL_M;
 use super::{GtDatabase, Scene};
 use crate::geometry::iou_bev;
 use crate::kitti::ObjectClass;
+use crate::sampling::{GatherMetric, SpatialGrid};
 use crate::{Box3d, Point};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -104,16 +106,30 @@ pub fn paste_from_database(
 /// box, a pasted object's points by the boxes pasted after it. `covers` holds per pasted
 /// object, in paste order, the index its points start at and its grown box.
 fn remove_covered(points: &mut Vec<Point>, covers: &[(usize, Box3d)]) {
-    let tests: Vec<_> = covers.iter().map(|(_, b)| b.point_test()).collect();
-    let mut k = 0;
-    // `later`: the first cover pasted after point `k` arrived.
-    let mut later = 0;
-    points.retain(|p| {
-        while later < covers.len() && covers[later].0 <= k {
-            later += 1;
+    // Each box looks at the points near it only.
+    let grid = SpatialGrid::new(points, NEAR_CELL_M);
+    let mut covered = vec![false; points.len()];
+    let mut near = Vec::new();
+    for (start, b) in covers {
+        let holds = b.point_test();
+        near.clear();
+        grid.within(
+            [b.x, b.y, 0.0],
+            b.bev_radius() + 0.01,
+            GatherMetric::Cylinder,
+            &mut near,
+        );
+        for k in near.iter().map(|&k| k as usize) {
+            // Only the points there before this object was pasted.
+            if k < *start && holds(&points[k]) {
+                covered[k] = true;
+            }
         }
+    }
+    let mut k = 0;
+    points.retain(|_| {
         k += 1;
-        !tests[later..].iter().any(|holds| holds(p))
+        !covered[k - 1]
     });
 }
 
@@ -153,6 +169,60 @@ mod tests {
             })
             .collect();
         GtDatabase { entries }
+    }
+
+    #[test]
+    fn covered_points_are_those_a_later_box_holds() {
+        // The rule itself, point by point, as the oracle: drop point k if a box pasted after
+        // it arrived holds it.
+        let naive = |points: &[Point], covers: &[(usize, Box3d)]| -> Vec<Point> {
+            let later = |k: usize| covers.iter().filter(move |(start, _)| *start > k);
+            (0..points.len())
+                .filter(|&k| !later(k).any(|(_, b)| b.point_test()(&points[k])))
+                .map(|k| points[k])
+                .collect()
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(6);
+        let mut points: Vec<Point> = (0..3000)
+            .map(|_| {
+                [
+                    rng.random_range(-20.0..20.0),
+                    rng.random_range(-20.0..20.0),
+                    rng.random_range(-2.0..1.0),
+                    0.0,
+                ]
+            })
+            .collect();
+        let mut covers = Vec::new();
+        for i in 0..6 {
+            let b = Box3d::new(
+                -10.0 + 4.0 * i as f32,
+                (i % 2) as f32,
+                -0.5,
+                4.5,
+                2.0,
+                2.0,
+                0.3 * i as f32,
+            );
+            covers.push((points.len(), b));
+            // The object's own points, partly inside the next box.
+            points.extend((0..50).map(|_| {
+                let q = b.from_local([
+                    rng.random_range(-0.5..0.5) * 6.0,
+                    rng.random_range(-0.5..0.5) * 2.0,
+                    0.0,
+                ]);
+                [q[0], q[1], q[2], 1.0]
+            }));
+        }
+        let want = naive(&points, &covers);
+        assert!(
+            want.len() + 50 < points.len() && want.len() > 2000,
+            "{} kept",
+            want.len()
+        );
+        remove_covered(&mut points, &covers);
+        assert_eq!(points, want);
     }
 
     #[test]

@@ -1,7 +1,9 @@
 //! The geometric transforms of augmentation as pure functions on a [`Scene`], each with its
 //! inverse. Points and boxes always move together.
 
+use super::NEAR_CELL_M;
 use crate::kitti::ObjectClass;
+use crate::sampling::{GatherMetric, SpatialGrid};
 use crate::{Box3d, Point, wrap_angle};
 
 /// A labelled point cloud as augmentation sees it (LiDAR frame).
@@ -71,6 +73,39 @@ pub fn rotate_box(scene: &mut Scene, i: usize, angle: f32, margin: f32) {
         (p[0], p[1]) = (x + b.x, y + b.y);
     }
     scene.boxes[i].heading = wrap_angle(b.heading + angle);
+}
+
+/// [`rotate_box`] for every box `i` by `angles[i]` in order (0 leaves it alone), with the same
+/// result, looking at each box's neighbourhood only: the points are put in a grid once, and a
+/// point is inside box `i` now either near where it was put in the grid or because an earlier
+/// box moved it, so those are looked at too.
+pub fn rotate_boxes(scene: &mut Scene, angles: &[f32], margin: f32) {
+    let grid = SpatialGrid::new(&scene.points, NEAR_CELL_M);
+    let mut moved: Vec<u32> = Vec::new();
+    let mut near = Vec::new();
+    for (i, &angle) in angles.iter().enumerate().filter(|(_, a)| **a != 0.0) {
+        let b = scene.boxes[i];
+        let grown = b.grown(margin);
+        let holds = grown.point_test();
+        near.clear();
+        grid.within(
+            [b.x, b.y, 0.0],
+            grown.bev_radius() + 0.01,
+            GatherMetric::Cylinder,
+            &mut near,
+        );
+        near.extend_from_slice(&moved);
+        near.sort_unstable();
+        near.dedup();
+        near.retain(|&k| holds(&scene.points[k as usize]));
+        for &k in &near {
+            let p = &mut scene.points[k as usize];
+            let (x, y) = rot(p[0] - b.x, p[1] - b.y, angle);
+            (p[0], p[1]) = (x + b.x, y + b.y);
+        }
+        moved.extend_from_slice(&near);
+        scene.boxes[i].heading = wrap_angle(b.heading + angle);
+    }
 }
 
 #[cfg(test)]
@@ -174,6 +209,28 @@ mod tests {
             g(&mut t);
             assert!(close(&t, &s));
         }
+    }
+
+    #[test]
+    fn rotating_all_boxes_at_once_equals_rotating_them_in_turn() {
+        // Overlapping boxes (the second's points include some the first moves), a box with
+        // no angle, and one far from every point.
+        let mut s = scene();
+        s.boxes.push(Box3d::new(11.0, 3.5, -0.9, 4.0, 1.7, 1.5, -0.2));
+        s.boxes.push(Box3d::new(50.0, 50.0, 0.0, 1.0, 1.0, 1.0, 0.0));
+        s.classes.extend([ObjectClass::Car, ObjectClass::Car]);
+        let angles = [0.15, -0.1, 0.3, 0.2];
+        let mut one_by_one = s.clone();
+        for (i, &a) in angles.iter().enumerate() {
+            rotate_box(&mut one_by_one, i, a, 0.1);
+        }
+        let mut at_once = s.clone();
+        rotate_boxes(&mut at_once, &angles, 0.1);
+        assert_eq!(at_once, one_by_one);
+        assert_ne!(at_once, s);
+        let mut skipped = s.clone();
+        rotate_boxes(&mut skipped, &[0.0, 0.0, 0.0, 0.0], 0.1);
+        assert_eq!(skipped, s);
     }
 
     #[test]

@@ -7,12 +7,17 @@
 //!   `s = γ / √(σ² + ε)` and `t = β − μ s`, so the normalised rows are never written; the
 //!   weight gradient unfolds the same way, `BN(x)ᵀ dz = diag(s) (xᵀ dz) + t ⊗ Σ_rows dz`.
 //!
+//! - The BatchNorms' backward sums (`Σ dy`, `Σ dy x`) come from the weight gradient's product:
+//!   with `dy = dz · Wᵀ`, `Σ_rows dy = W Σ_rows dz` and `Σ_rows dy ⊙ x = Σ_k W ⊙ (xᵀ dz)`, so no
+//!   pass over the rows is spent on them.
+//!
 //! Rows are the `N · P` point slots, center-major; padded slots (mask 0) are zero on the way in
 //! and out and in every gradient, as in the composed block. Batch statistics are over real rows
 //! (the pooled half weighs each center by its real-point count, as the broadcast concat does).
 
 use super::gemm::{Mat, matmul_new, matmul_tn};
-use super::rows::{add, add_scaled, col_sums, for_rows};
+use super::moments::Moments;
+use super::rows::{add, col_sums, for_rows, map_chunks};
 
 /// The block's sizes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -142,30 +147,6 @@ fn counts(mask: &[f32], dims: BlockDims) -> Vec<f32> {
         .collect()
 }
 
-/// Mean and biased variance of the columns of `x` (`[rows, cols]`) over rows weighted by `w`,
-/// two-pass like the composed BatchNorm, divided by `total` (the weights' sum, at least 1).
-fn weighted_stats(x: &[f32], cols: usize, w: &[f32], total: f32) -> BnStats {
-    let rows = w.len();
-    let row = |r: usize| &x[r * cols..(r + 1) * cols];
-    let [sum] = col_sums(rows, cols, |r, [acc]| {
-        if w[r] != 0.0 {
-            add_scaled(acc, row(r), w[r]);
-        }
-    });
-    let mean: Vec<f32> = sum.iter().map(|s| s / total).collect();
-    let [sq] = col_sums(rows, cols, |r, [acc]| {
-        if w[r] != 0.0 {
-            for ((a, x), m) in acc.iter_mut().zip(row(r)).zip(&mean) {
-                *a += w[r] * (x - m) * (x - m);
-            }
-        }
-    });
-    BnStats {
-        mean,
-        var: sq.iter().map(|s| s / total).collect(),
-    }
-}
-
 /// `(s, t)` of the folded BatchNorm: `BN(x) = x s + t`.
 fn fold(gamma: &[f32], beta: &[f32], stats: &BnStats, eps: f32) -> (Vec<f32>, Vec<f32>) {
     let s: Vec<f32> = gamma
@@ -242,15 +223,22 @@ pub fn forward(
     for_rows(&mut per_center, h, |_, row| add(row, &shift));
     let w1s = scale_rows(w1x, &s1[..d], h);
     let mut hidden = matmul_new(Mat::new(x, rows, d), false, Mat::new(&w1s, d, h), false);
-    for_rows(&mut hidden, h, |r, row| {
-        if mask[r] == 0.0 {
-            return row.fill(0.0);
+    let batch = matches!(norm, Normalization::Batch);
+    // The ReLU pass also takes BN₂'s batch moments, chunk by chunk while the rows are in cache.
+    let parts = map_chunks(&mut hidden, h, |r0, chunk| {
+        for (i, row) in chunk.chunks_exact_mut(h).enumerate() {
+            let r = r0 + i;
+            if mask[r] == 0.0 {
+                row.fill(0.0);
+                continue;
+            }
+            let c = &per_center[(r / p) * h..(r / p + 1) * h];
+            row.iter_mut().zip(c).for_each(|(v, c)| *v = (*v + c).max(0.0));
         }
-        let c = &per_center[(r / p) * h..(r / p + 1) * h];
-        row.iter_mut().zip(c).for_each(|(v, c)| *v = (*v + c).max(0.0));
+        batch.then(|| Moments::of_rows(chunk, h, &mask[r0..r0 + chunk.len() / h]))
     });
     let bn2 = match norm {
-        Normalization::Batch => weighted_stats(&hidden, h, mask, mask.iter().sum::<f32>().max(1.0)),
+        Normalization::Batch => Moments::merge_all(parts.into_iter().flatten().collect(), h).stats(),
         Normalization::Fixed { bn2, .. } => bn2.clone(),
     };
     let (s2, t2) = fold(params.gamma2, params.beta2, &bn2, params.epsilon);
@@ -278,12 +266,34 @@ pub fn forward(
 /// BN₁'s batch statistics: the point half over real rows, the pooled half over the same rows
 /// (each center's pooled value counted once per real point).
 fn batch_stats_bn1(x: &[f32], mask: &[f32], pooled: &[f32], dims: BlockDims) -> BnStats {
-    let total = mask.iter().sum::<f32>().max(1.0);
-    let points = weighted_stats(x, dims.d_in, mask, total);
-    let centers = weighted_stats(pooled, dims.d_in, &counts(mask, dims), total);
+    let points = Moments::of_rows_chunked(x, dims.d_in, mask).stats();
+    let centers = Moments::of_rows_chunked(pooled, dims.d_in, &counts(mask, dims)).stats();
     BnStats {
         mean: [points.mean, centers.mean].concat(),
         var: [points.var, centers.var].concat(),
+    }
+}
+
+/// The column sums a BatchNorm's backward needs: `Σ_rows dy` and `Σ_rows dy ⊙ (x − μ)` `[D]`.
+struct BnSums {
+    dy: Vec<f32>,
+    dy_centered: Vec<f32>,
+}
+
+impl BnSums {
+    /// For `dy = dz · Wᵀ` (`W` `[D, K]`), from `Σ_rows dz` `[K]` and `xᵀ dz` `[D, K]`, which
+    /// the weight gradient has computed: `Σ dy = W Σ dz` and `Σ dy ⊙ x = Σ_k W ⊙ (xᵀ dz)`.
+    fn through(w: &[f32], dz_sum: &[f32], xt_dz: &[f32], mean: &[f32]) -> Self {
+        let k = dz_sum.len();
+        let dot = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f32>();
+        let dy: Vec<f32> = w.chunks(k).map(|row| dot(row, dz_sum)).collect();
+        let dy_centered = w
+            .chunks(k)
+            .zip(xt_dz.chunks(k))
+            .zip(dy.iter().zip(mean))
+            .map(|((w, g), (dy, m))| dot(w, g) - m * dy)
+            .collect();
+        Self { dy, dy_centered }
     }
 }
 
@@ -298,24 +308,39 @@ struct BnBackward<'a> {
     eps: f32,
     weight: &'a [f32],
     total: f32,
+    /// `x` is a ReLU's output and the gradient goes on through it: zero where `x` is not > 0.
+    through_relu: bool,
 }
 
 impl BnBackward<'_> {
-    /// Returns `(dγ, dβ)` and turns `dy` (`[rows, D]`) into `dx`.
-    fn run(&self, dy: &mut [f32]) -> (Vec<f32>, Vec<f32>) {
+    fn row(&self, r: usize) -> &[f32] {
+        let cols = self.gamma.len();
+        &self.x[r * cols..(r + 1) * cols]
+    }
+
+    /// [`BnSums`] by a pass over the rows of `dy` (`[rows, D]`).
+    fn sums(&self, dy: &[f32]) -> BnSums {
         let (cols, mean) = (self.gamma.len(), &self.stats.mean);
-        let inv_sigma: Vec<f32> = self.stats.var.iter().map(|v| 1.0 / (v + self.eps).sqrt()).collect();
-        let x = |r: usize| &self.x[r * cols..(r + 1) * cols];
         // A pooled row's dy is already the sum over its points: it counts once here.
-        let dyr = &*dy;
-        let [dbeta, dot] = col_sums(self.weight.len(), cols, |r, [db, dd]| {
-            let g = &dyr[r * cols..(r + 1) * cols];
+        let [dy_sum, dy_centered] = col_sums(self.weight.len(), cols, |r, [db, dd]| {
+            let g = &dy[r * cols..(r + 1) * cols];
             add(db, g);
-            for ((d, g), (x, m)) in dd.iter_mut().zip(g).zip(x(r).iter().zip(mean)) {
+            for ((d, g), (x, m)) in dd.iter_mut().zip(g).zip(self.row(r).iter().zip(mean)) {
                 *d += g * (x - m);
             }
         });
-        let dgamma: Vec<f32> = dot.iter().zip(&inv_sigma).map(|(d, s)| d * s).collect();
+        BnSums {
+            dy: dy_sum,
+            dy_centered,
+        }
+    }
+
+    /// Returns `(dγ, dβ)` from `sums` and turns `dy` (`[rows, D]`) into `dx`.
+    fn apply(&self, sums: BnSums, dy: &mut [f32]) -> (Vec<f32>, Vec<f32>) {
+        let (cols, mean) = (self.gamma.len(), &self.stats.mean);
+        let inv_sigma: Vec<f32> = self.stats.var.iter().map(|v| 1.0 / (v + self.eps).sqrt()).collect();
+        let BnSums { dy: dbeta, dy_centered } = sums;
+        let dgamma: Vec<f32> = dy_centered.iter().zip(&inv_sigma).map(|(d, s)| d * s).collect();
         // dx = a (dy − w (b + (x − μ) c)), with a = γ/σ, b = dβ/M, c = dγ/(σ M).
         let a: Vec<f32> = self.gamma.iter().zip(&inv_sigma).map(|(g, s)| g * s).collect();
         let b: Vec<f32> = dbeta.iter().map(|d| d / self.total).collect();
@@ -325,34 +350,63 @@ impl BnBackward<'_> {
             if w == 0.0 {
                 return row.fill(0.0);
             }
-            let (x, a, b, c, mean) = (&x(r)[..cols], &a[..cols], &b[..cols], &c[..cols], &mean[..cols]);
+            let (x, a, b, c, mean) = (&self.row(r)[..cols], &a[..cols], &b[..cols], &c[..cols], &mean[..cols]);
             for j in 0..row.len().min(cols) {
-                row[j] = a[j] * (row[j] - w * (b[j] + (x[j] - mean[j]) * c[j]));
+                let g = a[j] * (row[j] - w * (b[j] + (x[j] - mean[j]) * c[j]));
+                row[j] = if self.through_relu && x[j] <= 0.0 { 0.0 } else { g };
             }
         });
         (dgamma, dbeta)
     }
 }
 
-/// `dW = diag(s)(xᵀ dz) + t ⊗ Σ_rows dz`: the gradient of `BN(x) · W` with respect to `W`.
-fn folded_weight_grad(x: Mat, dz: Mat, s: &[f32], t: &[f32]) -> Vec<f32> {
-    let cols = dz.cols;
-    let mut grad = matmul_tn(x, dz);
-    let [colsum] = col_sums(dz.rows, cols, |r, [acc]| add(acc, &dz.data[r * cols..(r + 1) * cols]));
-    for_rows(&mut grad, cols, |i, row| {
-        row.iter_mut().zip(&colsum).for_each(|(g, c)| *g = s[i] * *g + t[i] * c);
-    });
-    grad
+/// A weight gradient through a folded BatchNorm, `dW = diag(s)(xᵀ dz) + t ⊗ Σ_rows dz`, and
+/// the product `xᵀ dz` (`[D, K]`) that the BatchNorm's own backward reuses.
+struct FoldedGrad {
+    w: Vec<f32>,
+    xt_dz: Vec<f32>,
 }
 
-/// Zeroes `grad` where the ReLU that produced `out` was off.
-fn relu_backward(grad: &mut [f32], out: &[f32], cols: usize) {
-    for_rows(grad, cols, |r, row| {
-        let out = &out[r * cols..(r + 1) * cols];
-        row.iter_mut()
-            .zip(out)
-            .for_each(|(g, o)| *g = if *o > 0.0 { *g } else { 0.0 });
+fn folded_weight_grad(x: Mat, dz: Mat, dz_sum: &[f32], s: &[f32], t: &[f32]) -> FoldedGrad {
+    let xt_dz = matmul_tn(x, dz);
+    let mut w = xt_dz.clone();
+    for_rows(&mut w, dz.cols, |i, row| {
+        row.iter_mut().zip(dz_sum).for_each(|(g, c)| *g = s[i] * *g + t[i] * c);
     });
+    FoldedGrad { w, xt_dz }
+}
+
+/// Zeroes `grad` (`[rows, cols]`) where the ReLU that produced `out` was off, and returns the
+/// column sums of the result.
+fn relu_backward_sum(grad: &mut [f32], out: &[f32], cols: usize) -> Vec<f32> {
+    let parts = map_chunks(grad, cols, |r0, chunk| {
+        let mut sum = vec![0.0; cols];
+        for (i, row) in chunk.chunks_exact_mut(cols).enumerate() {
+            let out = &out[(r0 + i) * cols..(r0 + i + 1) * cols];
+            row.iter_mut()
+                .zip(out)
+                .for_each(|(g, o)| *g = if *o > 0.0 { *g } else { 0.0 });
+            add(&mut sum, row);
+        }
+        sum
+    });
+    sum_parts(parts, cols)
+}
+
+/// Column sums of `x` (`[rows, cols]`), in fixed chunks.
+fn column_sums(x: &[f32], cols: usize) -> Vec<f32> {
+    let [sum] = col_sums(x.len() / cols.max(1), cols, |r, [acc]| {
+        add(acc, &x[r * cols..(r + 1) * cols])
+    });
+    sum
+}
+
+/// The element-wise sum of `parts`, in order.
+fn sum_parts(parts: Vec<Vec<f32>>, cols: usize) -> Vec<f32> {
+    parts.into_iter().fold(vec![0.0; cols], |mut total, p| {
+        add(&mut total, &p);
+        total
+    })
 }
 
 /// A training forward's results, as the backward reads them.
@@ -410,10 +464,11 @@ fn second_layer_backward(
 ) -> SecondLayerGrads {
     let (rows, h, o) = (dims.rows(), dims.d_hidden, dims.d_out);
     let mut dz2 = d_out.to_vec();
-    relu_backward(&mut dz2, fwd.out, o);
+    let dz2_sum = relu_backward_sum(&mut dz2, fwd.out, o);
     let fwd = fwd.saved;
     let (s2, t2) = fold(params.gamma2, params.beta2, &fwd.bn2, params.epsilon);
-    let w2 = folded_weight_grad(Mat::new(&fwd.hidden, rows, h), Mat::new(&dz2, rows, o), &s2, &t2);
+    let hidden = Mat::new(&fwd.hidden, rows, h);
+    let w2 = folded_weight_grad(hidden, Mat::new(&dz2, rows, o), &dz2_sum, &s2, &t2);
     let mut dz1 = matmul_new(Mat::new(&dz2, rows, o), false, Mat::new(params.w2, h, o), true);
     let bn = BnBackward {
         x: &fwd.hidden,
@@ -422,10 +477,16 @@ fn second_layer_backward(
         eps: params.epsilon,
         weight: mask,
         total,
+        through_relu: true,
     };
-    let (gamma2, beta2) = bn.run(&mut dz1);
-    relu_backward(&mut dz1, &fwd.hidden, h);
-    SecondLayerGrads { dz1, gamma2, beta2, w2 }
+    let sums = BnSums::through(params.w2, &dz2_sum, &w2.xt_dz, &fwd.bn2.mean);
+    let (gamma2, beta2) = bn.apply(sums, &mut dz1);
+    SecondLayerGrads {
+        dz1,
+        gamma2,
+        beta2,
+        w2: w2.w,
+    }
 }
 
 /// The first layer's gradients and the input's.
@@ -463,7 +524,16 @@ fn first_layer_backward(
             row.iter_mut().zip(&dz1[r * h..(r + 1) * h]).for_each(|(a, g)| *a += g);
         }
     });
-    let mut w1 = folded_weight_grad(Mat::new(x, rows, d), Mat::new(&dz1, rows, h), &s1[..d], &t1[..d]);
+    // Σ over the rows is Σ over the centers' sums.
+    let dz1_sum = column_sums(&dz_center, h);
+    let first = folded_weight_grad(
+        Mat::new(x, rows, d),
+        Mat::new(&dz1, rows, h),
+        &dz1_sum,
+        &s1[..d],
+        &t1[..d],
+    );
+    let mut w1 = first.w;
     let yg = normalize_pooled(&fwd.pooled, &s1[d..], &t1[d..]);
     let w1_pooled = matmul_tn(Mat::new(&yg, centers, d), Mat::new(&dz_center, centers, h));
     w1.extend_from_slice(&w1_pooled);
@@ -482,8 +552,10 @@ fn first_layer_backward(
         eps,
         weight: mask,
         total,
+        through_relu: false,
     };
-    let (gamma_x, beta_x) = points.run(&mut dx);
+    let sums = BnSums::through(w1x, &dz1_sum, &first.xt_dz, &points.stats.mean);
+    let (gamma_x, beta_x) = points.apply(sums, &mut dx);
     let counts = counts(mask, dims);
     let pooled = BnBackward {
         x: &fwd.pooled,
@@ -492,8 +564,9 @@ fn first_layer_backward(
         eps,
         weight: &counts,
         total,
+        through_relu: false,
     };
-    let (gamma_g, beta_g) = pooled.run(&mut d_pooled);
+    let (gamma_g, beta_g) = pooled.apply(pooled.sums(&d_pooled), &mut d_pooled);
     scatter_pooled(&mut dx, &d_pooled, fwd, mask, dims);
     FirstLayerGrads {
         dx,

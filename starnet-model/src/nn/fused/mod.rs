@@ -6,6 +6,7 @@
 
 mod gemm;
 pub mod kernel;
+mod moments;
 mod rows;
 
 pub use gemm::{Mat, matmul, matmul_new, matmul_tn};

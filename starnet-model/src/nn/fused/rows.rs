@@ -37,6 +37,29 @@ pub fn col_sums<const K: usize>(
     total
 }
 
+/// Calls `f(first_row, chunk)` on consecutive chunks of [`CHUNK`] rows of `dst`, in parallel,
+/// and returns the results in row order: a reduction over them does not depend on the threads.
+pub fn map_chunks<T: Send>(dst: &mut [f32], cols: usize, f: impl Fn(usize, &mut [f32]) -> T + Sync) -> Vec<T> {
+    if cols == 0 {
+        return Vec::new();
+    }
+    dst.par_chunks_mut(CHUNK * cols)
+        .enumerate()
+        .map(|(i, chunk)| f(i * CHUNK, chunk))
+        .collect()
+}
+
+/// [`map_chunks`] over rows it only reads.
+pub fn read_chunks<T: Send>(x: &[f32], cols: usize, f: impl Fn(usize, &[f32]) -> T + Sync) -> Vec<T> {
+    if cols == 0 {
+        return Vec::new();
+    }
+    x.par_chunks(CHUNK * cols)
+        .enumerate()
+        .map(|(i, chunk)| f(i * CHUNK, chunk))
+        .collect()
+}
+
 /// `acc += x`.
 pub fn add(acc: &mut [f32], x: &[f32]) {
     acc.iter_mut().zip(x).for_each(|(a, x)| *a += x);
@@ -71,6 +94,21 @@ mod tests {
         });
         // Σ r over 0..600 = 179,700, plus the even rows again: 89,700.
         assert_eq!(s, [179_700.0 + 89_700.0, 2.0 * (179_700.0 + 89_700.0)]);
+    }
+
+    #[test]
+    fn chunk_maps_see_every_row_once_at_its_index() {
+        // 600 rows of 2: chunks start at rows 0, 256 and 512, the last one short.
+        let mut x: Vec<f32> = (0..1200).map(|i| (i / 2) as f32).collect();
+        let firsts = map_chunks(&mut x, 2, |r0, chunk| {
+            assert!(chunk.chunks(2).enumerate().all(|(i, row)| row == [(r0 + i) as f32; 2]));
+            chunk.iter_mut().for_each(|v| *v += 1.0);
+            (r0, chunk.len() / 2)
+        });
+        assert_eq!(firsts, [(0, 256), (256, 256), (512, 88)]);
+        let sums = read_chunks(&x, 2, |_, chunk| chunk.iter().sum::<f32>());
+        // Σ (r + 1) over the rows, twice per row.
+        assert_eq!(sums.iter().sum::<f32>(), 2.0 * (600.0 * 601.0 / 2.0));
     }
 
     #[test]
