@@ -63,9 +63,10 @@ pub struct ModelSection {
     /// offsets (`starnet_model::nn::StarNetConfig::shared_size`); the paper predicts them per
     /// offset (false).
     pub shared_size: bool,
-    /// Run the StarNet blocks as one fused operation each on the flex backend (the same maths,
-    /// to float rounding, several times faster to train); false: the composed Burn operations,
-    /// the reference and the path on other backends. Files that predate it mean true.
+    /// Run the featurizer (fc0, the StarNet blocks, the readout) as one fused operation on the
+    /// flex backend (the same maths, to float rounding, several times faster to train); false:
+    /// the composed Burn operations, the reference and the path on other backends. Files that
+    /// predate it mean true.
     #[serde(default = "fused_by_default")]
     pub fused_blocks: bool,
 }

@@ -42,6 +42,15 @@ pub enum TrainError {
         /// The loss value.
         value: f32,
     },
+    /// Training stopped on a non-finite gradient (the loss itself finite: a NaN or infinity
+    /// in an input that the forward multiplies by zero, such as a padded slot's feature).
+    #[error("step {step}: the gradient norm is {norm}; stopping (the last good checkpoint is kept)")]
+    NonFiniteGradient {
+        /// The step at which it happened.
+        step: u64,
+        /// The global gradient norm.
+        norm: f32,
+    },
     /// A training log line that is not a log record.
     #[error("{path}: line {line}: {message}")]
     Log {

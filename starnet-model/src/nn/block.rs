@@ -3,7 +3,7 @@
 //! On flex the block runs as one fused operation ([`super::fused`]) unless `fused` is off; the
 //! composed form here is the reference and the path on every other backend.
 
-use super::fused::kernel::BnStats;
+use super::fused::kernel::{BlockStats, BnStats};
 use super::fused::op::{self, ParamTensors};
 use super::{MaskedBatchNorm, MaskedBatchNormConfig, linear};
 use burn::module::Module;
@@ -114,13 +114,11 @@ impl StarNetBlock {
         let params = self.param_tensors();
         if self.bn1.uses_batch_statistics(&device) {
             let out = op::forward_train(f, mask, params)?;
-            self.bn1
-                .update_running(stats_tensor(out.bn1.mean, &device), stats_tensor(out.bn1.var, &device));
-            self.bn2
-                .update_running(stats_tensor(out.bn2.mean, &device), stats_tensor(out.bn2.var, &device));
+            self.record_batch_stats(out.stats);
             Some(out.out)
         } else if !device.is_autodiff() {
-            op::forward_eval(f, mask, params, &running(&self.bn1), &running(&self.bn2))
+            let stats = self.running_stats();
+            op::forward_eval(f, mask, params, &stats.bn1, &stats.bn2)
         } else {
             None
         }
@@ -128,7 +126,34 @@ impl StarNetBlock {
 }
 
 impl StarNetBlock {
-    fn param_tensors(&self) -> ParamTensors {
+    /// Whether the block runs as the fused operation where it can.
+    pub(crate) fn is_fused(&self) -> bool {
+        self.fused
+    }
+
+    /// Makes the block run fused (where it can) or composed.
+    #[cfg(test)]
+    pub(crate) fn set_fused(&mut self, fused: bool) {
+        self.fused = fused;
+    }
+
+    /// Moves the running statistics towards a batch's (a fused forward computed them).
+    pub(crate) fn record_batch_stats(&self, stats: BlockStats) {
+        let device = self.bn1.gamma.val().device();
+        for (bn, s) in [(&self.bn1, stats.bn1), (&self.bn2, stats.bn2)] {
+            bn.update_running(stats_tensor(s.mean, &device), stats_tensor(s.var, &device));
+        }
+    }
+
+    /// The running statistics, as the fused evaluation reads them.
+    pub(crate) fn running_stats(&self) -> BlockStats {
+        BlockStats {
+            bn1: running(&self.bn1),
+            bn2: running(&self.bn2),
+        }
+    }
+
+    pub(crate) fn param_tensors(&self) -> ParamTensors {
         ParamTensors {
             gamma1: self.bn1.gamma.val(),
             beta1: self.bn1.beta.val(),

@@ -2,6 +2,7 @@
 //! StarNet blocks, and a readout concatenating the masked mean over P of fc0's output and of
 //! every block's output into one cell feature per center.
 
+use super::fused::stack_op::{self, StackTensors};
 use super::{MaskedBatchNorm, StarNetBlock, StarNetBlockConfig, linear};
 use burn::module::Module;
 use burn::nn::Linear;
@@ -18,8 +19,9 @@ pub struct FeaturizerConfig {
     pub d_fc0: usize,
     /// Per block, `[hidden, output]` widths.
     pub blocks: Vec<[usize; 2]>,
-    /// Run the blocks as the fused operation where the backend allows it (flex, f32); off:
-    /// the composed Burn operations everywhere (the reference).
+    /// Run the featurizer (fc0, the blocks, the readout) as one fused operation where the
+    /// backend allows it (flex, f32); off: the composed Burn operations everywhere (the
+    /// reference).
     #[config(default = true)]
     pub fused: bool,
 }
@@ -79,6 +81,50 @@ impl Featurizer {
     /// - `mask`: `[B, C, P]` (1.0 real, 0.0 padded)
     /// - output: `[B, C, cell_dim]`
     pub fn forward(&self, points: Tensor<4>, mask: Tensor<3>) -> Tensor<3> {
+        if let Some(cell) = self.forward_fused(points.clone(), mask.clone()) {
+            return cell;
+        }
+        self.forward_composed(points, mask)
+    }
+
+    /// The whole featurizer as one fused operation, or `None` where it does not apply (a block
+    /// not fused, no block, another backend, an autodiff device with the training flag off).
+    fn forward_fused(&self, points: Tensor<4>, mask: Tensor<3>) -> Option<Tensor<3>> {
+        let first = self.blocks.first()?;
+        if !self.blocks.iter().all(StarNetBlock::is_fused) {
+            return None;
+        }
+        let [b, c, p, f] = points.dims();
+        let (points, mask) = (points.reshape([b * c, p, f]), mask.reshape([b * c, p]));
+        let device = points.device();
+        let params = StackTensors {
+            w0: self.fc0.weight.val(),
+            b0: self.fc0.bias.as_ref()?.val(),
+            blocks: self.blocks.iter().map(StarNetBlock::param_tensors).collect(),
+        };
+        let cell = if first.batch_norms()[0].uses_batch_statistics(&device) {
+            let out = stack_op::forward_train(points, mask, params)?;
+            self.blocks
+                .iter()
+                .zip(out.stats)
+                .for_each(|(k, s)| k.record_batch_stats(s));
+            out.cell
+        } else if !device.is_autodiff() {
+            let running: Vec<_> = self.blocks.iter().map(StarNetBlock::running_stats).collect();
+            stack_op::forward_eval(points, mask, params, &running)?
+        } else {
+            return None;
+        };
+        let [_, d] = cell.dims();
+        Some(cell.reshape([b, c, d]))
+    }
+
+    /// fc0, the blocks and the readout as Burn tensor operations, block by block (each block
+    /// fused or not as it is configured).
+    ///
+    /// # Shapes
+    /// As [`Self::forward`].
+    pub fn forward_composed(&self, points: Tensor<4>, mask: Tensor<3>) -> Tensor<3> {
         let [b, c, p, f] = points.dims();
         let m = mask.reshape([b * c, p, 1]);
         // fc0 has a bias: zero the padded rows so every later max and mean can ignore them.
@@ -122,6 +168,122 @@ mod tests {
     fn feature(f: &Featurizer, pts: &[[f32; 4]], p: usize, junk: f32, dev: &Device) -> Vec<f32> {
         let (x, m) = center(pts, p, junk, dev);
         f.forward(x, m).into_data().iter::<f32>().collect()
+    }
+
+    /// Moves every parameter and running statistic off its initial value, by a seeded amount
+    /// (variances stay positive: at least 0.4 of their start).
+    struct Perturb(rand_chacha::ChaCha8Rng);
+
+    impl burn::module::ModuleMapper for Perturb {
+        fn map_float<const D: usize>(
+            &mut self,
+            param: burn::module::Param<Tensor<D>>,
+        ) -> burn::module::Param<Tensor<D>> {
+            let rng = &mut self.0;
+            param.map(|t| {
+                let (shape, dev, is_param) = (t.shape(), t.device(), t.is_require_grad());
+                let v: Vec<f32> = t.into_data().iter::<f32>().collect();
+                let v: Vec<f32> = v
+                    .iter()
+                    .map(|x| x * (1.0 + rng.random_range(-0.4..0.4)) + rng.random_range(-0.2..0.2))
+                    .collect();
+                let moved = Tensor::<1>::from_floats(v.as_slice(), &dev).reshape(shape);
+                if is_param { moved.require_grad() } else { moved }
+            })
+        }
+    }
+
+    /// Every parameter's gradient, in visiting order.
+    struct Grads<'a>(&'a burn::tensor::Gradients, Vec<Vec<f32>>);
+
+    impl burn::module::ModuleVisitor for Grads<'_> {
+        fn visit_float<const D: usize>(&mut self, param: &burn::module::Param<Tensor<D>>) {
+            if let Some(g) = param.val().grad(self.0) {
+                self.1.push(g.into_data().iter::<f32>().collect());
+            }
+        }
+    }
+
+    /// `a` within 1e-4 of `b`, relative to `b`'s largest magnitude.
+    fn assert_close(a: &[f32], b: &[f32], what: &str) {
+        assert_eq!(a.len(), b.len(), "{what}: lengths");
+        let scale = b.iter().fold(1e-6f32, |m, v| m.max(v.abs()));
+        let worst = a.iter().zip(b).fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+        assert!(
+            worst <= 1e-4 * scale,
+            "{what}: max |fused − composed| {worst} against scale {scale}"
+        );
+    }
+
+    /// One training step's features, gradients and running statistics, the whole featurizer as
+    /// one fused operation against the composed blocks. `real[n]`: real points of center n.
+    fn check_fused_training(cfg: FeaturizerConfig, p: usize, real: &[usize], seed: u64) {
+        let dev = default_device().autodiff();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let fused = cfg
+            .init(&dev)
+            .map(&mut Perturb(rand_chacha::ChaCha8Rng::seed_from_u64(seed)));
+        let mut composed = fused.clone();
+        composed.blocks.iter_mut().for_each(|b| b.set_fused(false));
+        let n = real.len();
+        let x: Vec<f32> = (0..n * p * cfg.d_input).map(|_| rng.random_range(-2.0..2.0)).collect();
+        let m: Vec<f32> = real
+            .iter()
+            .flat_map(|&r| (0..p).map(move |s| f32::from(s < r)))
+            .collect();
+        let x = Tensor::<1>::from_floats(x.as_slice(), &dev).reshape([1, n, p, cfg.d_input]);
+        let m = Tensor::<1>::from_floats(m.as_slice(), &dev).reshape([1, n, p]);
+        let cot: Vec<f32> = (0..n * cfg.cell_dim()).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let cot = Tensor::<1>::from_floats(cot.as_slice(), &dev).reshape([1, n, cfg.cell_dim()]);
+        assert!(
+            fused.forward_fused(x.clone(), m.clone()).is_some(),
+            "the fused path must run"
+        );
+        let run = |f: &Featurizer| {
+            let cell = f.forward(x.clone(), m.clone());
+            let grads = (cell.clone() * cot.clone()).sum().backward();
+            let mut g = Grads(&grads, Vec::new());
+            f.visit(&mut g);
+            let cell: Vec<f32> = cell.into_data().iter::<f32>().collect();
+            (cell, g.1)
+        };
+        // The check above moved the fused running statistics once already: run the composed
+        // forward once more too, so both have seen the batch twice.
+        let _ = composed.forward(x.clone(), m.clone());
+        let (cell_f, grads_f) = run(&fused);
+        let (cell_c, grads_c) = run(&composed);
+        assert_close(&cell_f, &cell_c, "cell features");
+        assert_eq!(grads_f.len(), grads_c.len());
+        assert_eq!(
+            grads_f.len(),
+            2 + 6 * cfg.blocks.len(),
+            "a gradient for every parameter"
+        );
+        for (i, (gf, gc)) in grads_f.iter().zip(&grads_c).enumerate() {
+            assert_close(gf, gc, &format!("gradient {i}"));
+        }
+        for (bf, bc) in fused.batch_norms().into_iter().zip(composed.batch_norms()) {
+            let values = |t: Tensor<1>| t.into_data().iter::<f32>().collect::<Vec<f32>>();
+            assert_close(
+                &values(bf.running_mean.value()),
+                &values(bc.running_mean.value()),
+                "running mean",
+            );
+            assert_close(
+                &values(bf.running_var.value()),
+                &values(bc.running_var.value()),
+                "running variance",
+            );
+        }
+    }
+
+    #[test]
+    fn the_fused_featurizer_trains_as_the_composed_blocks_do() {
+        // The quickstart's widths; full, partly padded, one-point and empty centers.
+        check_fused_training(FeaturizerConfig::small(), 16, &[16, 5, 1, 0, 9, 16, 12, 3], 1);
+        // Widths unlike each other, P = 1, one block.
+        check_fused_training(FeaturizerConfig::new(5, vec![[7, 3]]), 1, &[1, 0, 1, 1, 0], 2);
+        check_fused_training(FeaturizerConfig::new(6, vec![[9, 4], [5, 8]]), 6, &[6, 2, 0, 4], 3);
     }
 
     #[test]

@@ -128,13 +128,10 @@ impl Trainer {
         let model = self.model.take().expect("the model is only taken within a step");
         let mut grads = GradientsParams::from_grads(terms.total.backward(), &model);
         let losses = read_back(terms, &model, &grads);
-        if !losses.loss.is_finite() {
+        if let Some(err) = non_finite(&losses, self.state.step) {
             model.restore_running_stats(running);
             self.model = Some(model);
-            return Err(TrainError::NonFiniteLoss {
-                step: self.state.step,
-                value: losses.loss,
-            });
+            return Err(err);
         }
         scale_to_norm(&model, &mut grads, losses.grad_norm, self.grad_clip_norm);
         let model = self.model.insert(self.optim.step(lr, model, grads));
@@ -190,12 +187,30 @@ fn read_back(terms: LossTerms, model: &StarNet, grads: &GradientsParams) -> Step
     }
 }
 
+/// The error a step with a non-finite loss or gradient norm ends in (Adam would write NaN
+/// into every weight).
+fn non_finite(losses: &StepLosses, step: u64) -> Option<TrainError> {
+    if !losses.loss.is_finite() {
+        Some(TrainError::NonFiniteLoss {
+            step,
+            value: losses.loss,
+        })
+    } else if !losses.grad_norm.is_finite() {
+        Some(TrainError::NonFiniteGradient {
+            step,
+            norm: losses.grad_norm,
+        })
+    } else {
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::config::load_config;
     use rand::SeedableRng;
-    use starnet_data::sampling::prepare_frame;
+    use starnet_data::sampling::{NUM_FEATURES, prepare_frame};
     use starnet_data::sim::{SynthConfig, simulate_scene_frame};
     use starnet_model::batch::frame_targets;
     use starnet_model::export::named_tensors;
@@ -213,7 +228,7 @@ mod tests {
     }
 
     #[test]
-    fn a_step_reports_its_terms_and_a_non_finite_loss_changes_nothing() {
+    fn a_step_reports_its_terms_and_a_non_finite_loss_or_gradient_changes_nothing() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/quickstart.toml");
         let cfg = load_config(&path, &["train.step_threads=1".into()]).unwrap();
         let device = starnet_model::backend::default_device().autodiff();
@@ -232,12 +247,25 @@ mod tests {
         assert!(losses.grad_norm > 0.0 && trainer.state.step == 1);
         // A NaN in the input: the step fails, naming the step, and nothing moves, the
         // BatchNorm running statistics included.
-        let mut bad = good;
+        let mut bad = good.clone();
         bad.frame.neighbourhoods.features[0] = f32::NAN;
         let before = named_tensors(trainer.model());
         let err = trainer.step(&[vec![bad]], 1e-3).unwrap_err();
         assert!(matches!(err, TrainError::NonFiniteLoss { step: 1, .. }), "{err}");
         assert_eq!(named_tensors(trainer.model()), before);
         assert_eq!(trainer.state.step, 1);
+        // A NaN in a padded slot: the forward masks it away, fc0's weight gradient does not.
+        let mut padded = good;
+        let slot = padded
+            .frame
+            .neighbourhoods
+            .mask
+            .iter()
+            .position(|m| !m)
+            .expect("a padded slot");
+        padded.frame.neighbourhoods.features[slot * NUM_FEATURES] = f32::NAN;
+        let err = trainer.step(&[vec![padded]], 1e-3).unwrap_err();
+        assert!(matches!(err, TrainError::NonFiniteGradient { step: 1, .. }), "{err}");
+        assert_eq!(named_tensors(trainer.model()), before);
     }
 }

@@ -17,7 +17,7 @@
 
 use super::gemm::{Mat, matmul_new, matmul_tn};
 use super::moments::Moments;
-use super::rows::{add, col_sums, for_rows, map_chunks};
+use super::rows::{add, col_sums, for_rows, map_chunks, relu, relu_passes};
 
 /// The block's sizes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -66,6 +66,15 @@ pub struct BnStats {
     pub mean: Vec<f32>,
     /// Biased variance `[D]`.
     pub var: Vec<f32>,
+}
+
+/// One block's two BatchNorms' statistics.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlockStats {
+    /// BN₁'s `[2d]`.
+    pub bn1: BnStats,
+    /// BN₂'s `[H]`.
+    pub bn2: BnStats,
 }
 
 /// Where the BatchNorms take their statistics from.
@@ -233,7 +242,7 @@ pub fn forward(
                 continue;
             }
             let c = &per_center[(r / p) * h..(r / p + 1) * h];
-            row.iter_mut().zip(c).for_each(|(v, c)| *v = (*v + c).max(0.0));
+            row.iter_mut().zip(c).for_each(|(v, c)| *v = relu(*v + c));
         }
         batch.then(|| Moments::of_rows(chunk, h, &mask[r0..r0 + chunk.len() / h]))
     });
@@ -249,7 +258,7 @@ pub fn forward(
         if mask[r] == 0.0 {
             return row.fill(0.0);
         }
-        row.iter_mut().zip(&bias2).for_each(|(v, b)| *v = (*v + b).max(0.0));
+        row.iter_mut().zip(&bias2).for_each(|(v, b)| *v = relu(*v + b));
     });
     (
         out,
@@ -353,7 +362,11 @@ impl BnBackward<'_> {
             let (x, a, b, c, mean) = (&self.row(r)[..cols], &a[..cols], &b[..cols], &c[..cols], &mean[..cols]);
             for j in 0..row.len().min(cols) {
                 let g = a[j] * (row[j] - w * (b[j] + (x[j] - mean[j]) * c[j]));
-                row[j] = if self.through_relu && x[j] <= 0.0 { 0.0 } else { g };
+                row[j] = if self.through_relu && !relu_passes(x[j]) {
+                    0.0
+                } else {
+                    g
+                };
             }
         });
         (dgamma, dbeta)
@@ -378,14 +391,14 @@ fn folded_weight_grad(x: Mat, dz: Mat, dz_sum: &[f32], s: &[f32], t: &[f32]) -> 
 
 /// Zeroes `grad` (`[rows, cols]`) where the ReLU that produced `out` was off, and returns the
 /// column sums of the result.
-fn relu_backward_sum(grad: &mut [f32], out: &[f32], cols: usize) -> Vec<f32> {
+pub(super) fn relu_backward_sum(grad: &mut [f32], out: &[f32], cols: usize) -> Vec<f32> {
     let parts = map_chunks(grad, cols, |r0, chunk| {
         let mut sum = vec![0.0; cols];
         for (i, row) in chunk.chunks_exact_mut(cols).enumerate() {
             let out = &out[(r0 + i) * cols..(r0 + i + 1) * cols];
             row.iter_mut()
                 .zip(out)
-                .for_each(|(g, o)| *g = if *o > 0.0 { *g } else { 0.0 });
+                .for_each(|(g, o)| *g = if relu_passes(*o) { *g } else { 0.0 });
             add(&mut sum, row);
         }
         sum

@@ -2,12 +2,15 @@
 //! ([`kernel`]), bound into Burn's flex backend and its autodiff graph ([`op`]). One op replaces
 //! the dozens of small tensor operations (each an allocation and a pass over memory) that the
 //! composed block ([`crate::nn::StarNetBlock`] with `fused = false`) records; the composed block
-//! stays the reference and the path on other backends.
+//! stays the reference and the path on other backends. The whole featurizer (fc0, the blocks,
+//! the readout) runs the same way as one operation ([`stack`], [`stack_op`]).
 
 mod gemm;
 pub mod kernel;
 mod moments;
 mod rows;
+pub mod stack;
 
 pub use gemm::{Mat, matmul, matmul_new, matmul_tn};
 pub mod op;
+pub mod stack_op;

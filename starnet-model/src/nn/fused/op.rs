@@ -3,7 +3,7 @@
 //! Both return `None` when the tensors live elsewhere (another backend, another dtype, a
 //! gradient-checkpointing strategy), and the caller then takes the composed path.
 
-use super::kernel::{self, BlockDims, BlockParams, BlockSaved, BnStats, Forward, Normalization};
+use super::kernel::{self, BlockDims, BlockParams, BlockSaved, BlockStats, BnStats, Forward, Normalization};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;
@@ -39,10 +39,8 @@ pub struct ParamTensors {
 pub struct TrainOutput {
     /// `[N, P, O]`.
     pub out: Tensor<3>,
-    /// BN₁'s batch statistics `[2d]`.
-    pub bn1: BnStats,
-    /// BN₂'s batch statistics `[H]`.
-    pub bn2: BnStats,
+    /// The batch statistics.
+    pub stats: BlockStats,
 }
 
 /// A contiguous f32 view of a flex tensor, copying only if it is strided.
@@ -53,7 +51,7 @@ pub(crate) fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
     }
 }
 
-fn flex(values: Vec<f32>, shape: Vec<usize>) -> FlexTensor {
+pub(crate) fn flex(values: Vec<f32>, shape: Vec<usize>) -> FlexTensor {
     FlexTensor::from_data(TensorData::new(values, shape))
 }
 
@@ -208,7 +206,6 @@ pub fn forward_train(x: Tensor<3>, mask: Tensor<2>, params: ParamTensors) -> Opt
     };
     Some(TrainOutput {
         out: Tensor::from_primitive::<Autodiff<Flex>>(out),
-        bn1,
-        bn2,
+        stats: BlockStats { bn1, bn2 },
     })
 }

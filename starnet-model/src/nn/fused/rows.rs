@@ -60,6 +60,17 @@ pub fn read_chunks<T: Send>(x: &[f32], cols: usize, f: impl Fn(usize, &[f32]) ->
         .collect()
 }
 
+/// `max(x, 0)`, except that NaN stays NaN (as Burn's and PyTorch's ReLU: `f32::max` would
+/// turn it into 0 and hide a bad input from the loss).
+pub fn relu(x: f32) -> f32 {
+    if x.is_nan() || x > 0.0 { x } else { 0.0 }
+}
+
+/// Whether a ReLU whose output is `out` passes its gradient (NaN outputs do, as in Burn).
+pub fn relu_passes(out: f32) -> bool {
+    out.is_nan() || out > 0.0
+}
+
 /// `acc += x`.
 pub fn add(acc: &mut [f32], x: &[f32]) {
     acc.iter_mut().zip(x).for_each(|(a, x)| *a += x);
@@ -109,6 +120,13 @@ mod tests {
         let sums = read_chunks(&x, 2, |_, chunk| chunk.iter().sum::<f32>());
         // Σ (r + 1) over the rows, twice per row.
         assert_eq!(sums.iter().sum::<f32>(), 2.0 * (600.0 * 601.0 / 2.0));
+    }
+
+    #[test]
+    fn relu_keeps_nan() {
+        assert_eq!([relu(-1.0), relu(0.0), relu(2.5)], [0.0, 0.0, 2.5]);
+        assert!(relu(f32::NAN).is_nan() && relu_passes(f32::NAN));
+        assert!(!relu_passes(0.0) && relu_passes(1e-30));
     }
 
     #[test]
