@@ -3,11 +3,10 @@
 //! as needed to reach the class's target, skipping any whose footprint would touch an existing
 //! or already-pasted box (rotated BEV IoU must be exactly 0).
 
-use super::NEAR_CELL_M;
 use super::{GtDatabase, Scene};
+use super::{near_grid, points_near};
 use crate::geometry::iou_bev;
 use crate::kitti::ObjectClass;
-use crate::sampling::{GatherMetric, SpatialGrid};
 use crate::{Box3d, Point};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -107,18 +106,12 @@ pub fn paste_from_database(
 /// object, in paste order, the index its points start at and its grown box.
 fn remove_covered(points: &mut Vec<Point>, covers: &[(usize, Box3d)]) {
     // Each box looks at the points near it only.
-    let grid = SpatialGrid::new(points, NEAR_CELL_M);
+    let grid = near_grid(points);
     let mut covered = vec![false; points.len()];
     let mut near = Vec::new();
     for (start, b) in covers {
         let holds = b.point_test();
-        near.clear();
-        grid.within(
-            [b.x, b.y, 0.0],
-            b.bev_radius() + 0.01,
-            GatherMetric::Cylinder,
-            &mut near,
-        );
+        points_near(&grid, b, &mut near);
         for k in near.iter().map(|&k| k as usize) {
             // Only the points there before this object was pasted.
             if k < *start && holds(&points[k]) {

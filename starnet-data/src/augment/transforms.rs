@@ -1,9 +1,8 @@
 //! The geometric transforms of augmentation as pure functions on a [`Scene`], each with its
 //! inverse. Points and boxes always move together.
 
-use super::NEAR_CELL_M;
+use super::{near_grid, points_near};
 use crate::kitti::ObjectClass;
-use crate::sampling::{GatherMetric, SpatialGrid};
 use crate::{Box3d, Point, wrap_angle};
 
 /// A labelled point cloud as augmentation sees it (LiDAR frame).
@@ -80,20 +79,14 @@ pub fn rotate_box(scene: &mut Scene, i: usize, angle: f32, margin: f32) {
 /// point is inside box `i` now either near where it was put in the grid or because an earlier
 /// box moved it, so those are looked at too.
 pub fn rotate_boxes(scene: &mut Scene, angles: &[f32], margin: f32) {
-    let grid = SpatialGrid::new(&scene.points, NEAR_CELL_M);
+    let grid = near_grid(&scene.points);
     let mut moved: Vec<u32> = Vec::new();
     let mut near = Vec::new();
     for (i, &angle) in angles.iter().enumerate().filter(|(_, a)| **a != 0.0) {
         let b = scene.boxes[i];
         let grown = b.grown(margin);
         let holds = grown.point_test();
-        near.clear();
-        grid.within(
-            [b.x, b.y, 0.0],
-            grown.bev_radius() + 0.01,
-            GatherMetric::Cylinder,
-            &mut near,
-        );
+        points_near(&grid, &grown, &mut near);
         near.extend_from_slice(&moved);
         near.sort_unstable();
         near.dedup();
