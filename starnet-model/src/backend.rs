@@ -3,6 +3,7 @@
 //! variable is not consulted: the device is the one this build was compiled for.
 
 use burn::prelude::Device;
+use serde::{Deserialize, Serialize};
 
 #[cfg(not(any(feature = "flex", feature = "ndarray")))]
 compile_error!("starnet-model needs a backend feature: `flex` (default), `x86-v4` or `ndarray`");
@@ -31,6 +32,106 @@ pub fn default_device() -> Device {
     }
 }
 
+/// Where a model computes: the CPU (`flex`, the default) or a GPU through wgpu — `vulkan` (pinned
+/// to Vulkan) or `wgpu` (whichever graphics API wgpu settles on), each optionally `:N`, the N-th
+/// discrete GPU (without it: wgpu's choice, the high-power adapter, or the one
+/// `CUBECL_WGPU_DEFAULT_DEVICE` names). The GPU choices need a build with the cargo feature of
+/// the same name; the fused StarNet kernels are flex's, so a GPU runs the composed operations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub enum DeviceChoice {
+    /// The flex CPU backend.
+    #[default]
+    Flex,
+    /// A Vulkan device: wgpu's choice, or the given discrete GPU.
+    Vulkan(Option<usize>),
+    /// A wgpu device on any graphics API: wgpu's choice, or the given discrete GPU.
+    Wgpu(Option<usize>),
+}
+
+/// A device name that is not `flex`, `vulkan[:N]` or `wgpu[:N]`, or one this build lacks.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DeviceError {
+    /// Not a device name.
+    #[error("unknown device {0:?}: expected flex, vulkan, vulkan:N, wgpu or wgpu:N")]
+    Unknown(String),
+    /// A device whose cargo feature this build was compiled without.
+    #[error("device {0}: this build lacks the `{1}` cargo feature (cargo build --release --features {1})")]
+    NotBuilt(DeviceChoice, &'static str),
+}
+
+impl std::str::FromStr for DeviceChoice {
+    type Err = DeviceError;
+
+    fn from_str(s: &str) -> Result<Self, DeviceError> {
+        let unknown = || DeviceError::Unknown(s.to_string());
+        let (name, index) = match s.split_once(':') {
+            Some((name, n)) => (name, Some(n.parse::<usize>().map_err(|_| unknown())?)),
+            None => (s, None),
+        };
+        match (name, index) {
+            ("flex", None) => Ok(Self::Flex),
+            ("vulkan", n) => Ok(Self::Vulkan(n)),
+            ("wgpu", n) => Ok(Self::Wgpu(n)),
+            _ => Err(unknown()),
+        }
+    }
+}
+
+impl std::fmt::Display for DeviceChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (name, index) = match self {
+            Self::Flex => return f.write_str("flex"),
+            Self::Vulkan(n) => ("vulkan", n),
+            Self::Wgpu(n) => ("wgpu", n),
+        };
+        match index {
+            Some(n) => write!(f, "{name}:{n}"),
+            None => f.write_str(name),
+        }
+    }
+}
+
+impl TryFrom<String> for DeviceChoice {
+    type Error = DeviceError;
+
+    fn try_from(s: String) -> Result<Self, DeviceError> {
+        s.parse()
+    }
+}
+
+impl From<DeviceChoice> for String {
+    fn from(d: DeviceChoice) -> String {
+        d.to_string()
+    }
+}
+
+/// The wgpu adapter a GPU choice names.
+#[cfg(any(feature = "vulkan", feature = "wgpu"))]
+fn device_kind(index: Option<usize>) -> burn::tensor::DeviceKind {
+    index.map_or(
+        burn::tensor::DeviceKind::DefaultDevice,
+        burn::tensor::DeviceKind::DiscreteGpu,
+    )
+}
+
+impl DeviceChoice {
+    /// The (non-autodiff) device; an error when this build lacks its backend.
+    pub fn device(self) -> Result<Device, DeviceError> {
+        match self {
+            Self::Flex => Ok(default_device()),
+            #[cfg(feature = "vulkan")]
+            Self::Vulkan(n) => Ok(Device::vulkan(device_kind(n))),
+            #[cfg(not(feature = "vulkan"))]
+            Self::Vulkan(_) => Err(DeviceError::NotBuilt(self, "vulkan")),
+            #[cfg(feature = "wgpu")]
+            Self::Wgpu(n) => Ok(Device::wgpu(device_kind(n))),
+            #[cfg(not(feature = "wgpu"))]
+            Self::Wgpu(_) => Err(DeviceError::NotBuilt(self, "wgpu")),
+        }
+    }
+}
+
 /// Makes the calling thread one of the compute pool's threads (rayon's global pool, of
 /// `RAYON_NUM_THREADS` or one thread per core in all, this one included). Call it first, from
 /// the thread that will run the model: the parallel parts of every operation it starts (the
@@ -52,6 +153,24 @@ pub fn compute_on_this_thread() -> bool {
 mod tests {
     use super::*;
     use burn::prelude::Tensor;
+
+    #[test]
+    fn device_names_round_trip_and_bad_ones_are_named() {
+        for (text, choice) in [
+            ("flex", DeviceChoice::Flex),
+            ("vulkan", DeviceChoice::Vulkan(None)),
+            ("vulkan:1", DeviceChoice::Vulkan(Some(1))),
+            ("wgpu:0", DeviceChoice::Wgpu(Some(0))),
+        ] {
+            assert_eq!(text.parse::<DeviceChoice>().unwrap(), choice);
+            assert_eq!(choice.to_string(), text);
+        }
+        for bad in ["cuda", "vulkan:x", "flex:0", ""] {
+            let err = bad.parse::<DeviceChoice>().unwrap_err().to_string();
+            assert!(err.contains(&format!("{bad:?}")), "{err}");
+        }
+        assert!(DeviceChoice::Flex.device().is_ok());
+    }
 
     #[test]
     fn device_computes_a_matmul() {

@@ -19,3 +19,4 @@ pub mod loss;
 pub mod nms;
 pub mod nn;
 pub mod onnx;
+pub mod replicas;

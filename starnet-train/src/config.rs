@@ -14,6 +14,7 @@ use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::{AnchorGrid, PipelineConfig, SliceConfig};
 use starnet_data::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive, width};
 use starnet_model::assign::AssignConfig;
+use starnet_model::backend::DeviceChoice;
 use starnet_model::loss::LossConfig;
 use starnet_model::nms::{ClassNms, NmsConfig, Precedence};
 use starnet_model::nn::{FeaturizerConfig, StarNetConfig};
@@ -146,6 +147,9 @@ pub struct TrainSection {
     /// (it contends with the loader for its core: the quickstart sets 1); the paper's widths
     /// train 1.4× faster on two than on one (BENCHMARKS.md, issue #16).
     pub step_threads: usize,
+    /// Where the model trains: `flex` (the CPU), `vulkan[:N]` or `wgpu[:N]` (a GPU; a build with
+    /// that cargo feature). Evaluation runs on the CPU.
+    pub device: DeviceChoice,
     /// Frames prepared ahead.
     pub prefetch: usize,
     /// Print a plain log line every this many steps (when stderr is not a terminal).
@@ -242,6 +246,7 @@ impl Default for ExperimentConfig {
                 ema_decay: 0.99,
                 workers: 1,
                 step_threads: 0,
+                device: DeviceChoice::Flex,
                 prefetch: 4,
                 log_every: 50,
                 eval_every: 0,

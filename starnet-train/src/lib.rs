@@ -10,6 +10,7 @@ pub mod coverage;
 pub mod curves;
 pub mod detect;
 pub mod detector;
+pub mod distributed;
 pub mod error;
 pub mod eval;
 pub mod export;

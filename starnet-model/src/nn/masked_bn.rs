@@ -4,6 +4,7 @@
 //! mask. Mode follows Burn's convention: batch statistics on an autodiff device with the
 //! training flag on (`model.valid()` turns both off), running statistics otherwise.
 
+use crate::replicas::op::all_sum;
 use burn::module::{Flag, Module, Param, RunningState};
 use burn::nn::Initializer;
 use burn::prelude::*;
@@ -64,10 +65,12 @@ impl MaskedBatchNorm {
     pub fn forward(&self, x: Tensor<2>, mask: Tensor<2>) -> Tensor<2> {
         let [_, d] = x.dims();
         let (mean, var) = if self.uses_batch_statistics(&x.device()) {
-            let count = mask.clone().sum().clamp_min(1.0).reshape([1, 1]);
-            let mean = (x.clone() * mask.clone()).sum_dim(0) / count.clone(); // [1, D]
+            // Sums over the replica group, when training data-parallel: the statistics are the
+            // whole batch's (synchronised BatchNorm); `all_sum` is the identity otherwise.
+            let count = all_sum(mask.clone().sum()).clamp_min(1.0).reshape([1, 1]);
+            let mean = all_sum((x.clone() * mask.clone()).sum_dim(0)) / count.clone(); // [1, D]
             let centred = (x.clone() - mean.clone()) * mask.clone();
-            let var = centred.powi_scalar(2).sum_dim(0) / count; // [1, D]
+            let var = all_sum(centred.powi_scalar(2).sum_dim(0)) / count; // [1, D]
             self.update_running(mean.clone().reshape([d]), var.clone().reshape([d]));
             (mean, var)
         } else {

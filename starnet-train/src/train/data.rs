@@ -7,6 +7,7 @@
 use super::schedule::Schedule;
 use crate::Result;
 use crate::config::ExperimentConfig;
+use crate::distributed::Shard;
 use crate::prepare::database_path;
 use crate::synth::progress_bar;
 use rand::SeedableRng;
@@ -107,30 +108,27 @@ pub fn train_item(
         .collect())
 }
 
-/// The items of steps `first_step..schedule.end`, prepared ahead in `train.workers` threads.
+/// The items of `shard` in steps `first_step..schedule.end` (`train.batch_size` is the global
+/// batch; [`Shard::whole`] loads all of it), prepared ahead in `train.workers` threads.
 pub fn train_loader(
     cfg: &ExperimentConfig,
     train_set: &KittiDataset,
     database: Option<Arc<GtDatabase>>,
     schedule: Schedule,
     first_step: u64,
+    shard: Shard,
 ) -> Loader<Vec<TrainItem>> {
     let (ds, cfg) = (train_set.clone(), cfg.clone());
     let batch = cfg.train.batch_size;
     let steps = schedule.end - first_step.min(schedule.end);
     Loader::new(
-        steps as usize * batch,
+        steps as usize * (batch / shard.ranks),
         cfg.train.workers,
         cfg.train.prefetch,
         cfg.seed,
         move |i, _| {
-            train_item(
-                &cfg,
-                &ds,
-                database.as_deref(),
-                &schedule,
-                first_step as usize * batch + i,
-            )
+            let k = first_step as usize * batch + shard.item(batch, i);
+            train_item(&cfg, &ds, database.as_deref(), &schedule, k)
         },
     )
 }

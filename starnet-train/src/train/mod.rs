@@ -7,6 +7,7 @@
 //!
 //! ```no_run
 //! use starnet_train::config::load_config;
+//! use starnet_train::distributed::Shard;
 //! use starnet_train::train::{RunFolder, Schedule, Trainer, ensure_data, paste_database, train_loader, validate};
 //! use std::path::Path;
 //!
@@ -17,7 +18,7 @@
 //! let schedule = Schedule::new(&cfg.train, train_set.ids().len(), Some(20));
 //! let device = starnet_model::backend::default_device().autodiff();
 //! let mut trainer = Trainer::start(&cfg, None, &device)?;
-//! let mut items = train_loader(&cfg, &train_set, paste_database(&cfg)?, schedule, 0);
+//! let mut items = train_loader(&cfg, &train_set, paste_database(&cfg)?, schedule, 0, Shard::whole());
 //! while trainer.state.step < schedule.end {
 //!     let sweeps = (&mut items).take(cfg.train.batch_size).collect::<Result<Vec<_>, _>>()?;
 //!     let losses = trainer.step(&sweeps, schedule.lr(cfg.train.learning_rate, trainer.state.step))?;

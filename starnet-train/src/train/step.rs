@@ -6,6 +6,7 @@ use super::clip::{global_norm, scale_to_norm, squared_grad_norms};
 use super::data::TrainItem;
 use super::ema::WeightEma;
 use crate::config::ExperimentConfig;
+use crate::distributed::{Replicas, average, average_gradients, scope};
 use crate::{Result, TrainError};
 use burn::module::Module;
 use burn::optim::decay::WeightDecayConfig;
@@ -37,6 +38,33 @@ pub struct StepLosses {
     pub grad_norm: f32,
 }
 
+impl StepLosses {
+    /// The six loss values (the total first, then the terms in field order).
+    pub(crate) fn terms(&self) -> [f32; 6] {
+        [
+            self.loss,
+            self.classification,
+            self.location,
+            self.dimension,
+            self.rotation,
+            self.direction,
+        ]
+    }
+
+    /// These losses with the six values of [`StepLosses::terms`] replaced.
+    fn with_terms(self, [loss, classification, location, dimension, rotation, direction]: [f32; 6]) -> Self {
+        Self {
+            loss,
+            classification,
+            location,
+            dimension,
+            rotation,
+            direction,
+            grad_norm: self.grad_norm,
+        }
+    }
+}
+
 /// A model being trained, with its optimiser, EMA and position.
 pub struct Trainer {
     /// The model (on an autodiff device); `None` only inside [`Trainer::step`], so Adam
@@ -54,6 +82,8 @@ pub struct Trainer {
     device: Device,
     /// The threads a step computes on (`train.step_threads`).
     pool: Arc<rayon::ThreadPool>,
+    /// The replica group of data-parallel training ([`Trainer::with_replicas`]).
+    replicas: Option<Arc<dyn Replicas>>,
 }
 
 /// The step's pool: `threads` threads, 0 meaning rayon's default (`RAYON_NUM_THREADS`, else one
@@ -101,7 +131,27 @@ impl Trainer {
             grad_clip_norm: cfg.train.grad_clip_norm,
             device: device.clone(),
             pool: step_pool(cfg.train.step_threads)?,
+            replicas: None,
         })
+    }
+
+    /// Makes this trainer one replica of `group` (data-parallel training, see
+    /// [`crate::distributed`]): its steps synchronise the BatchNorms over the group, average the
+    /// gradients and report the group's mean losses, so every member takes the same Adam step.
+    /// Every member must start from the same weights and step in lockstep. Needs the flex
+    /// device (synchronised BatchNorm is written for it).
+    pub fn with_replicas(mut self, group: Arc<dyn Replicas>) -> Result<Self> {
+        if !starnet_model::replicas::supported(&self.device) {
+            return Err(TrainError::InvalidArgument {
+                name: "distributed".into(),
+                message: format!(
+                    "data-parallel training runs on the flex CPU device, not {:?}",
+                    self.device
+                ),
+            });
+        }
+        self.replicas = Some(group);
+        Ok(self)
     }
 
     /// One step at learning rate `lr` on `sweeps` (each a sequence of slices, all of one
@@ -116,18 +166,24 @@ impl Trainer {
     }
 
     fn step_here(&mut self, sweeps: &[Vec<TrainItem>], lr: f64) -> Result<StepLosses> {
-        let slices = sweeps[0].len();
-        // Sweep-major: the slices of each sweep in order, as `forward_slices` expects.
-        let frames: Vec<_> = sweeps.iter().flatten().map(|i| &i.frame).collect();
-        let targets: Vec<_> = sweeps.iter().flatten().map(|i| &i.targets).collect();
-        let b = make_batch(&frames, &targets, self.num_classes, &self.device);
         // The forward moves the BatchNorm running statistics; a failed step puts them back.
         let running = self.model().running_stats();
-        let (out, _) = self.model().forward_slices(b.input, slices, None);
-        let terms = starnet_loss(&out, &b.targets, &self.loss);
         let model = self.model.take().expect("the model is only taken within a step");
-        let mut grads = GradientsParams::from_grads(terms.total.backward(), &model);
-        let losses = read_back(terms, &model, &grads);
+        let (terms, mut grads) = match self.replicas.clone() {
+            Some(group) => scope(group, || self.gradients(&model, sweeps)),
+            None => self.gradients(&model, sweeps),
+        };
+        if let Some(group) = &self.replicas {
+            average_gradients(&model, &mut grads, group.as_ref());
+        }
+        let mut losses = read_back(terms, &model, &grads);
+        if let Some(group) = &self.replicas {
+            // The norm is already the averaged gradients'; the terms are each member's own.
+            let mut terms = losses.terms();
+            average(&mut terms, group.as_ref());
+            losses = losses.with_terms(terms);
+        }
+        // The same decision on every replica: the values it reads are the group's.
         if let Some(err) = non_finite(&losses, self.state.step) {
             model.restore_running_stats(running);
             self.model = Some(model);
@@ -142,17 +198,32 @@ impl Trainer {
         Ok(losses)
     }
 
+    /// The loss terms of `model` on `sweeps` and their gradients.
+    fn gradients(&self, model: &StarNet, sweeps: &[Vec<TrainItem>]) -> (LossTerms, GradientsParams) {
+        let slices = sweeps[0].len();
+        // Sweep-major: the slices of each sweep in order, as `forward_slices` expects.
+        let frames: Vec<_> = sweeps.iter().flatten().map(|i| &i.frame).collect();
+        let targets: Vec<_> = sweeps.iter().flatten().map(|i| &i.targets).collect();
+        let b = make_batch(&frames, &targets, self.num_classes, &self.device);
+        let (out, _) = model.forward_slices(b.input, slices, None);
+        let terms = starnet_loss(&out, &b.targets, &self.loss);
+        let grads = GradientsParams::from_grads(terms.total.backward(), model);
+        (terms, grads)
+    }
+
     /// The model being trained.
     pub fn model(&self) -> &StarNet {
         self.model.as_ref().expect("the model is only taken within a step")
     }
 
     /// The model to evaluate and keep as `best`: the averaged weights when there is an EMA.
+    /// It lives on the CPU, where evaluation runs, whichever device trains.
     pub fn eval_model(&self) -> StarNet {
-        match &self.ema {
+        let model = match &self.ema {
             Some(e) => e.apply(self.model()),
             None => self.model().valid(),
-        }
+        };
+        model.to_device(&starnet_model::backend::default_device())
     }
 
     /// Writes the whole state as checkpoint `dir/name` (atomically).

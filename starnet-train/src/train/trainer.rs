@@ -17,9 +17,11 @@ use super::schedule::Schedule;
 use super::step::Trainer;
 use crate::config::{ExperimentConfig, to_toml};
 use crate::detector::{Budget, Detector};
+use crate::distributed::{Replicas, Role};
 use crate::stream::{NmsMode, StreamGroundTruth, StreamModel, evaluate_stream};
 use crate::synth::progress_bar;
 use crate::{Result, TrainError};
+use indicatif::ProgressBar;
 use starnet_data::kitti::KittiDataset;
 use starnet_model::nn::StarNet;
 use std::path::{Path, PathBuf};
@@ -34,8 +36,11 @@ pub struct TrainOptions {
     pub resume: bool,
     /// Stop after this many steps in total (for tests and smoke runs).
     pub max_steps: Option<u64>,
-    /// Set by a Ctrl-C handler: save and stop at the next step.
+    /// Set by a Ctrl-C handler: save and stop at the next step (every replica, when any is
+    /// asked).
     pub stop: Option<Arc<AtomicBool>>,
+    /// Train as one replica of this group (data-parallel; [`crate::distributed`]).
+    pub replicas: Option<Arc<dyn Replicas>>,
 }
 
 /// How a run ended.
@@ -112,6 +117,17 @@ impl RunFolder {
         })
     }
 
+    /// An existing run folder as another member of data-parallel training sees it, after
+    /// replica 0 has prepared it: nothing is written.
+    pub fn open(dir: &Path) -> Self {
+        let checkpoints = dir.join("checkpoints");
+        Self {
+            resume_from: latest_checkpoint(&checkpoints),
+            dir: dir.to_path_buf(),
+            checkpoints,
+        }
+    }
+
     /// Saves `trainer` as its `step-*` checkpoint and prunes to the newest `keep`.
     pub fn save_step(&self, trainer: &Trainer, keep: usize) -> Result<()> {
         trainer.save(&self.checkpoints, &format!("step-{:08}", trainer.state.step))?;
@@ -135,30 +151,38 @@ impl RunFolder {
 }
 
 /// Trains as `cfg` says, in `run_dir`: restore, then per step load → step → log, per epoch
-/// evaluate → checkpoint, and at the end the final evaluation.
+/// evaluate → checkpoint, and at the end the final evaluation. With
+/// [`TrainOptions::replicas`], as one replica of data-parallel training ([`crate::distributed`]):
+/// it loads its shard of every batch, and only replica 0 writes the run's files and evaluates.
 pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Result<TrainSummary> {
-    ensure_data(cfg)?;
-    let run = RunFolder::create(run_dir, cfg, opts.resume)?;
+    let role = Role::of(opts.replicas.clone());
+    let local_batch = role.shard.local_batch(cfg.train.batch_size)?;
+    let run = prepare_run(cfg, run_dir, opts.resume, &role)?;
     let train_set = cfg.dataset(&cfg.data.train_split)?;
     let val_set = cfg.dataset(&cfg.data.val_split)?;
     let schedule = Schedule::new(&cfg.train, train_set.ids().len(), opts.max_steps);
-    let device = starnet_model::backend::default_device().autodiff();
-    device.seed(cfg.seed);
-    if let Some(dir) = &run.resume_from {
-        println!("resuming from {}", dir.display());
-    }
-    let mut trainer = Trainer::start(cfg, run.resume_from.as_deref(), &device)?;
-    let mut items = train_loader(cfg, &train_set, paste_database(cfg)?, schedule, trainer.state.step);
-    let mut log = TrainLog::open(&run.dir.join("log.jsonl"))?;
+    let mut trainer = start_trainer(cfg, &run, &role)?;
+    let mut items = train_loader(
+        cfg,
+        &train_set,
+        paste_database(cfg)?,
+        schedule,
+        trainer.state.step,
+        role.shard,
+    );
+    let mut log = role
+        .writes()
+        .then(|| TrainLog::open(&run.dir.join("log.jsonl")))
+        .transpose()?;
     let bar = progress_bar(schedule.total, "train");
+    if !role.writes() {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
     bar.set_position(trainer.state.step);
-    let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let stop_requested = || opts.stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed));
     let mut clock = Instant::now();
-    while trainer.state.step < schedule.end && !stop_requested() {
-        let sweeps: Vec<Vec<TrainItem>> = (&mut items)
-            .take(cfg.train.batch_size)
-            .collect::<std::result::Result<_, _>>()?;
+    while trainer.state.step < schedule.end && !role.any(stop_requested()) {
+        let sweeps: Vec<Vec<TrainItem>> = (&mut items).take(local_batch).collect::<std::result::Result<_, _>>()?;
         let lr = schedule.lr(cfg.train.learning_rate, trainer.state.step);
         let losses = trainer.step(&sweeps, lr)?;
         let record = StepRecord {
@@ -166,40 +190,100 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
             epoch: schedule.epoch(trainer.state.step),
             lr,
             losses,
-            frames_per_s: sweeps.len() as f64 / clock.elapsed().as_secs_f64(),
+            frames_per_s: (sweeps.len() * role.shard.ranks) as f64 / clock.elapsed().as_secs_f64(),
         };
         clock = Instant::now();
-        log.step(&record)?;
-        bar.set_position(record.step);
-        bar.set_message(format!(
-            "epoch {:.2} loss {:.4} (cls {:.4} loc {:.4}) lr {lr:.2e} {:.1} frames/s",
-            record.epoch, losses.loss, losses.classification, losses.location, record.frames_per_s
-        ));
-        if !terminal && record.step.is_multiple_of(cfg.train.log_every.max(1) as u64) {
-            eprintln!("{}", progress_line(&record, schedule.total));
-        }
+        let Some(log) = log.as_mut() else { continue };
+        report_step(&record, &bar, log, cfg.train.log_every, schedule.total)?;
         if schedule.epoch_ends(record.step) {
             // The training bar steps aside while the evaluation draws its own.
-            bar.suspend(|| end_epoch(cfg, &run, &mut trainer, &mut log, &schedule, &val_set))?;
+            bar.suspend(|| end_epoch(cfg, &run, &mut trainer, log, &schedule, &val_set))?;
         }
     }
     bar.finish_and_clear();
+    let Some(mut log) = log else {
+        return Ok(summary(&run, &trainer, trainer.state.step < schedule.end, None));
+    };
     log.flush()?;
+    finish(cfg, &run, trainer, &schedule, &val_set)
+}
+
+/// The run folder, ready on every member: replica 0 generates the data when absent and
+/// prepares the folder; the others wait for it, then find the checkpoint to resume from.
+fn prepare_run(cfg: &ExperimentConfig, run_dir: &Path, resume: bool, role: &Role) -> Result<RunFolder> {
+    let run = if role.writes() {
+        ensure_data(cfg)?;
+        Some(RunFolder::create(run_dir, cfg, resume)?)
+    } else {
+        None
+    };
+    role.barrier();
+    match run {
+        Some(run) => Ok(run),
+        None => Ok(RunFolder::open(run_dir)),
+    }
+}
+
+/// The trainer of a run on the autodiff CPU device: fresh, or from the newest checkpoint; a
+/// replica of the role's group, when it has one.
+fn start_trainer(cfg: &ExperimentConfig, run: &RunFolder, role: &Role) -> Result<Trainer> {
+    let device = cfg.train.device.device().map_err(|e| TrainError::InvalidArgument {
+        name: "train.device".into(),
+        message: e.to_string(),
+    })?;
+    let device = device.autodiff();
+    device.seed(cfg.seed);
+    if let (Some(dir), true) = (&run.resume_from, role.writes()) {
+        println!("resuming from {}", dir.display());
+    }
+    let trainer = Trainer::start(cfg, run.resume_from.as_deref(), &device)?;
+    match &role.group {
+        Some(group) => trainer.with_replicas(Arc::clone(group)),
+        None => Ok(trainer),
+    }
+}
+
+/// A step's record to the log, the progress bar and, without a terminal, every `log_every`
+/// steps to stderr.
+fn report_step(record: &StepRecord, bar: &ProgressBar, log: &mut TrainLog, log_every: usize, total: u64) -> Result<()> {
+    log.step(record)?;
+    bar.set_position(record.step);
+    let l = &record.losses;
+    bar.set_message(format!(
+        "epoch {:.2} loss {:.4} (cls {:.4} loc {:.4}) lr {:.2e} {:.1} frames/s",
+        record.epoch, l.loss, l.classification, l.location, record.lr, record.frames_per_s
+    ));
+    let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    if !terminal && record.step.is_multiple_of(log_every.max(1) as u64) {
+        eprintln!("{}", progress_line(record, total));
+    }
+    Ok(())
+}
+
+/// The end of a run on the writing member: the checkpoint to resume from when it stopped
+/// early, else the final evaluation (kept as `best` and `eval.json`).
+fn finish(
+    cfg: &ExperimentConfig,
+    run: &RunFolder,
+    mut trainer: Trainer,
+    schedule: &Schedule,
+    val_set: &KittiDataset,
+) -> Result<TrainSummary> {
     if trainer.state.step < schedule.end {
         run.save_step(&trainer, cfg.train.keep_last)?;
         println!(
             "stopped at step {}: checkpoint saved, continue with --resume",
             trainer.state.step
         );
-        return Ok(summary(&run, &trainer, true, None));
+        return Ok(summary(run, &trainer, true, None));
     }
-    let report = validate(&trainer.eval_model(), cfg, &val_set, Some(&run.dir.join("results")))?;
+    let report = validate(&trainer.eval_model(), cfg, val_set, Some(&run.dir.join("results")))?;
     run.keep_best(&mut trainer, report.headline(), OnTie::TakeNew)?;
     starnet_data::io::atomic_write(
         &run.dir.join("eval.json"),
         serde_json::to_string_pretty(&report).expect("serialises").as_bytes(),
     )?;
-    Ok(summary(&run, &trainer, false, Some(report)))
+    Ok(summary(run, &trainer, false, Some(report)))
 }
 
 /// The close of an epoch: the validation when due (keeping `best`), then the step checkpoint.

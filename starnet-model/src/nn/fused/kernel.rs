@@ -247,7 +247,9 @@ pub fn forward(
         batch.then(|| Moments::of_rows(chunk, h, &mask[r0..r0 + chunk.len() / h]))
     });
     let bn2 = match norm {
-        Normalization::Batch => Moments::merge_all(parts.into_iter().flatten().collect(), h).stats(),
+        Normalization::Batch => Moments::merge_all(parts.into_iter().flatten().collect(), h)
+            .across_replicas()
+            .stats(),
         Normalization::Fixed { bn2, .. } => bn2.clone(),
     };
     let (s2, t2) = fold(params.gamma2, params.beta2, &bn2, params.epsilon);
@@ -275,8 +277,10 @@ pub fn forward(
 /// BN₁'s batch statistics: the point half over real rows, the pooled half over the same rows
 /// (each center's pooled value counted once per real point).
 fn batch_stats_bn1(x: &[f32], mask: &[f32], pooled: &[f32], dims: BlockDims) -> BnStats {
-    let points = Moments::of_rows_chunked(x, dims.d_in, mask).stats();
-    let centers = Moments::of_rows_chunked(pooled, dims.d_in, &counts(mask, dims)).stats();
+    let points = Moments::of_rows_chunked(x, dims.d_in, mask).across_replicas().stats();
+    let centers = Moments::of_rows_chunked(pooled, dims.d_in, &counts(mask, dims))
+        .across_replicas()
+        .stats();
     BnStats {
         mean: [points.mean, centers.mean].concat(),
         var: [points.var, centers.var].concat(),
@@ -303,6 +307,19 @@ impl BnSums {
             .map(|((w, g), (dy, m))| dot(w, g) - m * dy)
             .collect();
         Self { dy, dy_centered }
+    }
+
+    /// The sums over the rows of every replica of the calling thread's group
+    /// ([`crate::replicas`]; `self` without a group): synchronised BatchNorm's backward.
+    fn across_replicas(self) -> Self {
+        if crate::replicas::current().is_none() {
+            return self;
+        }
+        let d = self.dy.len();
+        let mut both = [self.dy, self.dy_centered].concat();
+        crate::replicas::sum(&mut both);
+        let dy_centered = both.split_off(d);
+        Self { dy: both, dy_centered }
     }
 }
 
@@ -348,12 +365,21 @@ impl BnBackward<'_> {
     fn apply(&self, sums: BnSums, dy: &mut [f32]) -> (Vec<f32>, Vec<f32>) {
         let (cols, mean) = (self.gamma.len(), &self.stats.mean);
         let inv_sigma: Vec<f32> = self.stats.var.iter().map(|v| 1.0 / (v + self.eps).sqrt()).collect();
-        let BnSums { dy: dbeta, dy_centered } = sums;
-        let dgamma: Vec<f32> = dy_centered.iter().zip(&inv_sigma).map(|(d, s)| d * s).collect();
-        // dx = a (dy − w (b + (x − μ) c)), with a = γ/σ, b = dβ/M, c = dγ/(σ M).
+        // dγ and dβ are this replica's (data-parallel training averages them with the other
+        // gradients); dx goes through the statistics of the whole batch, so it takes the sums
+        // over the replica group.
+        let dgamma: Vec<f32> = sums.dy_centered.iter().zip(&inv_sigma).map(|(d, s)| d * s).collect();
+        let dbeta = sums.dy.clone();
+        let global = sums.across_replicas();
+        // dx = a (dy − w (b + (x − μ) c)), with a = γ/σ, b = Σ dy/M, c = Σ dy (x − μ)/(σ² M).
         let a: Vec<f32> = self.gamma.iter().zip(&inv_sigma).map(|(g, s)| g * s).collect();
-        let b: Vec<f32> = dbeta.iter().map(|d| d / self.total).collect();
-        let c: Vec<f32> = dgamma.iter().zip(&inv_sigma).map(|(d, s)| d * s / self.total).collect();
+        let b: Vec<f32> = global.dy.iter().map(|d| d / self.total).collect();
+        let c: Vec<f32> = global
+            .dy_centered
+            .iter()
+            .zip(&inv_sigma)
+            .map(|(d, s)| d * s * s / self.total)
+            .collect();
         for_rows(dy, cols, |r, row| {
             let w = self.weight[r];
             if w == 0.0 {
@@ -443,7 +469,8 @@ pub fn backward(
     fwd: Forward,
     d_out: &[f32],
 ) -> BlockGrads {
-    let total = mask.iter().sum::<f32>().max(1.0);
+    // The whole batch's real rows, over the replica group when training data-parallel.
+    let total = crate::replicas::sum_scalar(mask.iter().sum::<f32>()).max(1.0);
     let second = second_layer_backward(mask, params, dims, fwd, d_out, total);
     let first = first_layer_backward(x, mask, params, dims, fwd.saved, second.dz1, total);
     BlockGrads {

@@ -73,6 +73,36 @@ impl Moments {
         Self { weight, mean, m2 }
     }
 
+    /// The moments of the rows of every replica of the calling thread's group
+    /// ([`crate::replicas`]): their sums Σ w, Σ w x and Σ w x² (in f64) summed over the group
+    /// (`self` without a group).
+    pub fn across_replicas(self) -> Self {
+        let Some(group) = crate::replicas::current() else {
+            return self;
+        };
+        let (cols, w) = (self.mean.len(), f64::from(self.weight));
+        let mut sums = Vec::with_capacity(1 + 2 * cols);
+        sums.push(w);
+        sums.extend(self.mean.iter().map(|&m| w * f64::from(m)));
+        let second = self.m2.iter().zip(&self.mean);
+        sums.extend(second.map(|(&m2, &m)| f64::from(m2) + w * f64::from(m) * f64::from(m)));
+        group.sum_f64(&mut sums);
+        let weight = sums[0];
+        let mean: Vec<f64> = sums[1..=cols]
+            .iter()
+            .map(|s| if weight > 0.0 { s / weight } else { 0.0 })
+            .collect();
+        let m2 = sums[1 + cols..]
+            .iter()
+            .zip(&mean)
+            .map(|(s, m)| (s - weight * m * m).max(0.0) as f32);
+        Self {
+            weight: weight as f32,
+            m2: m2.collect(),
+            mean: mean.into_iter().map(|m| m as f32).collect(),
+        }
+    }
+
     /// The mean and the biased variance (the squared deviations over the weight, over 1 when
     /// there is none: every value is then 0).
     pub fn stats(self) -> BnStats {

@@ -2,6 +2,7 @@
 //! calls the `starnet_train` library; nothing else happens here. Each subcommand is an
 //! argument struct with a `run()`.
 
+mod distributed;
 mod frames;
 mod models;
 mod outputs;

@@ -1,5 +1,6 @@
 //! Commands on models: `train`, `eval`, `stream-eval`, `export`, `detect`.
 
+use crate::distributed::{Distributed, abort_job, join_world};
 use anyhow::Context;
 use clap::Args;
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
@@ -35,24 +36,47 @@ pub struct Train {
     /// Stop after this many steps in total.
     #[arg(long)]
     max_steps: Option<u64>,
+    /// Train data-parallel as one process of an MPI job: `mpirun -np N starnet train
+    /// --distributed mpi ...` (a build with the `mpi` feature). `train.batch_size` is the global
+    /// batch, split across the N processes.
+    #[arg(long, value_enum)]
+    distributed: Option<Distributed>,
+    /// Where the model trains: flex (the CPU, default), vulkan, vulkan:N, wgpu or wgpu:N (a GPU; a build
+    /// with that cargo feature). The same as --set train.device=...
+    #[arg(long)]
+    device: Option<String>,
 }
 
 impl Train {
     pub fn run(self) -> anyhow::Result<()> {
-        let cfg = starnet_train::config::load_config(&self.config, &self.sets)?;
+        let mut sets = self.sets;
+        sets.extend(self.device.map(|d| format!("train.device={d:?}")));
+        let cfg = starnet_train::config::load_config(&self.config, &sets)?;
         let run_dir = self.run.unwrap_or_else(|| run_dir_for(&cfg, &self.config));
         let stop = Arc::new(AtomicBool::new(false));
         let flag = Arc::clone(&stop);
         ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).context("installing the Ctrl-C handler")?;
+        let world = self.distributed.map(|_| join_world()).transpose()?;
         let opts = TrainOptions {
             resume: self.resume,
             max_steps: self.max_steps,
             stop: Some(stop),
+            replicas: world
+                .clone()
+                .map(|w| w as Arc<dyn starnet_train::distributed::Replicas>),
         };
-        let summary = train(&cfg, &run_dir, &opts).map_err(|e| match e {
+        let result = train(&cfg, &run_dir, &opts).map_err(|e| match e {
             starnet_train::TrainError::RunExists { .. } => anyhow::anyhow!("{e}; pass --resume to continue it"),
             e => e.into(),
-        })?;
+        });
+        let summary = match (result, &world) {
+            (Ok(summary), _) => summary,
+            (Err(e), Some(world)) => abort_job(world, &e),
+            (Err(e), None) => return Err(e),
+        };
+        if opts.replicas.as_ref().is_some_and(|r| r.rank() != 0) {
+            return Ok(());
+        }
         println!("{} steps; run folder {}", summary.steps, summary.run_dir.display());
         if let Some(report) = summary.eval {
             print!("{report}");
