@@ -10,7 +10,7 @@
 use crate::coder::{direction_bin, encode};
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
-use starnet_data::geometry::{PreparedBox, iou_bev_prepared};
+use starnet_data::geometry::{PreparedBox, iou_bev_prepared, iou_bev_upper_bound};
 use starnet_data::settings::{Checked, InvalidSetting, within};
 
 /// Assignment thresholds.
@@ -104,7 +104,7 @@ pub fn assign_targets(
     let BestOverlaps {
         per_anchor: best,
         per_object: best_anchor,
-    } = best_overlaps(anchors, a, boxes);
+    } = best_overlaps(anchors, a, boxes, cfg.fg_iou.min(cfg.bg_iou));
     let mut matched: Vec<i32> = best
         .iter()
         .map(|&(j, iou)| if iou >= cfg.fg_iou { j } else { -1 })
@@ -154,7 +154,9 @@ pub fn assign_targets(
 }
 
 /// Each anchor's best object and each object's best anchor by rotated BEV IoU (the first on
-/// ties; `(-1, 0)` and `(usize::MAX, 0)` where every IoU is 0).
+/// ties; `(-1, 0)` and `(usize::MAX, 0)` where every IoU is 0). An anchor's is exact where it
+/// reaches the assignment's `floor` (the lower of its two thresholds) and below `floor`
+/// otherwise: below both thresholds, which object it is and how far below do not matter.
 #[derive(Debug, Clone, PartialEq)]
 struct BestOverlaps {
     per_anchor: Vec<(i32, f32)>,
@@ -162,7 +164,7 @@ struct BestOverlaps {
 }
 
 /// [`BestOverlaps`] of `anchors` (center-major, `a` per center) and `boxes`.
-fn best_overlaps(anchors: &[Box3d], a: usize, boxes: &[Box3d]) -> BestOverlaps {
+fn best_overlaps(anchors: &[Box3d], a: usize, boxes: &[Box3d], floor: f32) -> BestOverlaps {
     let a = a.max(1);
     let mut best = BestOverlaps {
         per_anchor: vec![(-1, 0.0); anchors.len()],
@@ -181,6 +183,13 @@ fn best_overlaps(anchors: &[Box3d], a: usize, boxes: &[Box3d]) -> BestOverlaps {
         for (k, an) in group.iter().map(PreparedBox::new).enumerate() {
             let i = g * a + k;
             for &j in &near {
+                // A pair whose bound is below the floor and no better than the object's best
+                // so far changes neither: no clip for it (most pairs, once an object has met
+                // its first well-placed anchor).
+                let bound = iou_bev_upper_bound(&an, &prepared[j]);
+                if bound < floor && bound <= best.per_object[j].1 {
+                    continue;
+                }
                 let iou = iou_bev_prepared(&an, &prepared[j]);
                 if iou > best.per_anchor[i].1 {
                     best.per_anchor[i] = (j as i32, iou);
@@ -238,7 +247,7 @@ mod tests {
     }
 
     #[test]
-    fn pruned_overlaps_equal_those_of_every_pair() {
+    fn pruned_overlaps_decide_as_those_of_every_pair() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         for grid in [AnchorGrid::kitti_car(), AnchorGrid::kitti_pedestrian()] {
@@ -265,12 +274,27 @@ mod tests {
                 })
                 .collect();
             let an: Vec<Box3d> = centers.iter().flat_map(|c| grid.anchors_around(*c)).collect();
-            let pruned = best_overlaps(&an, grid.len(), &boxes);
-            assert_eq!(pruned, best_overlaps_of_every_pair(&an, &boxes));
+            let every = best_overlaps_of_every_pair(&an, &boxes);
             assert!(
-                pruned.per_anchor.iter().filter(|m| m.0 >= 0).count() > 50,
+                every.per_anchor.iter().filter(|m| m.0 >= 0).count() > 50,
                 "overlaps exist"
             );
+            // Floor 0: nothing may be skipped but pairs of IoU 0, and the result is exact.
+            assert_eq!(best_overlaps(&an, grid.len(), &boxes, 0.0), every);
+            for floor in [0.45, 0.567] {
+                let pruned = best_overlaps(&an, grid.len(), &boxes, floor);
+                assert_eq!(pruned.per_object, every.per_object, "floor {floor}");
+                for (i, (p, e)) in pruned.per_anchor.iter().zip(&every.per_anchor).enumerate() {
+                    match e.1 >= floor {
+                        true => assert_eq!(p, e, "anchor {i}"),
+                        false => assert!(p.1 < floor && p.1 <= e.1, "anchor {i}: {p:?} for {e:?}"),
+                    }
+                }
+                assert!(
+                    pruned.per_anchor.iter().zip(&every.per_anchor).any(|(p, e)| p != e),
+                    "floor {floor} prunes something"
+                );
+            }
         }
     }
 

@@ -193,7 +193,13 @@ impl ModuleMapper for Load<'_> {
                         true => transpose(&found.data, want[0], want[1]),
                         false => found.data.clone(),
                     };
-                    Tensor::<1>::from_floats(values.as_slice(), &t.device()).reshape(t.shape())
+                    let loaded = Tensor::<1>::from_floats(values.as_slice(), &t.device()).reshape(t.shape());
+                    // A trainable parameter stays one (fine-tuning from loaded weights).
+                    if t.is_require_grad() {
+                        loaded.require_grad()
+                    } else {
+                        loaded
+                    }
                 }
                 Some(found) => {
                     error = Some(ExportError::Tensor {

@@ -65,7 +65,8 @@ pub struct ModelSection {
     /// offset (false).
     pub shared_size: bool,
     /// Run the featurizer (fc0, the StarNet blocks, the readout) as one fused operation on the
-    /// flex backend (the same maths, to float rounding, several times faster to train); false:
+    /// flex backend, and the projector's Linear and the heads as another (the same maths, to
+    /// float rounding, several times faster to train); false:
     /// the composed Burn operations, the reference and the path on other backends. Files that
     /// predate it mean true.
     #[serde(default = "fused_by_default")]

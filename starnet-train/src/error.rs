@@ -42,8 +42,8 @@ pub enum TrainError {
         /// The loss value.
         value: f32,
     },
-    /// Training stopped on a non-finite gradient (the loss itself finite: a NaN or infinity
-    /// in an input that the forward multiplies by zero, such as a padded slot's feature).
+    /// Training stopped on a non-finite gradient (the loss itself finite, as when the backward
+    /// pass overflows).
     #[error("step {step}: the gradient norm is {norm}; stopping (the last good checkpoint is kept)")]
     NonFiniteGradient {
         /// The step at which it happened.

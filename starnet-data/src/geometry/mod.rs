@@ -8,6 +8,8 @@ mod polygon;
 mod pose;
 
 pub use box3d::{Box3d, wrap_angle};
-pub use iou::{IouKind, PreparedBox, iou_3d, iou_3d_prepared, iou_bev, iou_bev_prepared, iou_matrix};
+pub use iou::{
+    IouKind, PreparedBox, iou_3d, iou_3d_prepared, iou_bev, iou_bev_prepared, iou_bev_upper_bound, iou_matrix,
+};
 pub use polygon::{convex_intersection_area, convex_separated, polygon_area};
 pub use pose::{Pose, parse_poses, read_poses};

@@ -20,8 +20,8 @@ pub struct FeaturizerConfig {
     /// Per block, `[hidden, output]` widths.
     pub blocks: Vec<[usize; 2]>,
     /// Run the featurizer (fc0, the blocks, the readout) as one fused operation where the
-    /// backend allows it (flex, f32); off: the composed Burn operations everywhere (the
-    /// reference).
+    /// backend allows it (flex, f32), and [`crate::nn::StarNet`]'s projector and heads as
+    /// another; off: the composed Burn operations everywhere (the reference).
     #[config(default = true)]
     pub fused: bool,
 }
@@ -85,6 +85,12 @@ impl Featurizer {
             return cell;
         }
         self.forward_composed(points, mask)
+    }
+
+    /// Whether the featurizer runs as one fused operation on flex (every block is fused); the
+    /// projector and heads then run fused too.
+    pub fn is_fused(&self) -> bool {
+        !self.blocks.is_empty() && self.blocks.iter().all(StarNetBlock::is_fused)
     }
 
     /// The whole featurizer as one fused operation, or `None` where it does not apply (a block

@@ -6,6 +6,7 @@
 //! The streaming variant adds a [`SliceLstm`] between featurizer and projector
 //! ([`StarNet::forward_slices`]); without it every center is independent of the others.
 
+use super::fused::head_op::{self, HeadTensors};
 use super::{
     Featurizer, FeaturizerConfig, MaskedBatchNorm, MaskedBatchNormConfig, RunningStats, SliceLstm, SliceLstmConfig,
     SliceState, linear,
@@ -37,6 +38,16 @@ pub struct ModelOutput {
     /// Direction-bin logits `[B, C, A, 2]` ([`crate::coder::direction_bin`]), when the model
     /// has the direction classifier.
     pub dir_logits: Option<Tensor<4>>,
+}
+
+/// The heads' outputs per grid offset, before they are laid out per anchor.
+struct OffsetOutputs {
+    /// `[BC·G², R·Pr·K]`.
+    cls: Tensor<2>,
+    /// `[BC·G², R·Pr·7]`.
+    reg: Tensor<2>,
+    /// `[BC·G², R·Pr·2]`.
+    dir: Option<Tensor<2>>,
 }
 
 /// Configuration of [`StarNet`].
@@ -194,13 +205,10 @@ impl StarNet {
             .proj_bn
             .forward(cell.reshape([b * c, d_cell]), center_valid.reshape([b * c, 1]));
         let size = self.size_head.as_ref().map(|h| h.forward(rows.clone())); // [BC, R·Pr·3]
-        let per_offset = relu(self.proj.forward(rows)); // [BC, G²·D]
-        let [_, width] = per_offset.dims();
-        let offsets = width / self.d_offset;
-        let f = per_offset.reshape([b * c * offsets, self.d_offset]); // [BC·G², D]
-        let cls = self.cls_head.forward(f.clone()); // [BC·G², R·Pr·K]
-        let dir = self.dir_head.as_ref().map(|h| h.forward(f.clone())); // [BC·G², R·Pr·2]
-        let reg = self.box_head.forward(f); // [BC·G², R·Pr·7]
+        let offsets = self.proj.weight.dims()[1] / self.d_offset;
+        let OffsetOutputs { cls, reg, dir } = self
+            .per_offset_fused(rows.clone())
+            .unwrap_or_else(|| self.per_offset(rows));
         let per = cls.dims()[1] / self.num_classes;
         let mut reg = reg.reshape([b * c, offsets, per, 7]);
         if let Some(size) = size {
@@ -213,6 +221,58 @@ impl StarNet {
             box_residuals: reg.reshape([b, c, offsets * per, 7]),
             dir_logits: dir.map(|d| d.reshape([b, c, offsets * per, 2])),
         }
+    }
+
+    /// The projector's Linear and ReLU and the heads as Burn operations (the reference, and the
+    /// path off flex).
+    ///
+    /// # Shapes
+    /// - rows: `[BC, cell]` (the projector's BatchNorm output)
+    fn per_offset(&self, rows: Tensor<2>) -> OffsetOutputs {
+        let f = relu(self.proj.forward(rows)); // [BC, G²·D]
+        let [bc, width] = f.dims();
+        let f = f.reshape([bc * width / self.d_offset, self.d_offset]); // [BC·G², D]
+        OffsetOutputs {
+            cls: self.cls_head.forward(f.clone()),
+            dir: self.dir_head.as_ref().map(|h| h.forward(f.clone())),
+            reg: self.box_head.forward(f),
+        }
+    }
+
+    /// [`Self::per_offset`] as one fused operation whose heads share a product
+    /// ([`super::fused::head_op`]), where the featurizer is fused and the tensors are on flex.
+    fn per_offset_fused(&self, rows: Tensor<2>) -> Option<OffsetOutputs> {
+        if !self.featurizer.is_fused() {
+            return None;
+        }
+        let device = rows.device();
+        let heads: Vec<&Linear> = [Some(&self.cls_head), Some(&self.box_head), self.dir_head.as_ref()]
+            .into_iter()
+            .flatten()
+            .collect();
+        let width = |h: &Linear| h.weight.dims()[1];
+        let bias = |h: &Linear| {
+            h.bias
+                .as_ref()
+                .map_or_else(|| Tensor::zeros([width(h)], &device), |b| b.val())
+        };
+        let params = HeadTensors {
+            w_proj: self.proj.weight.val(),
+            b_proj: self.proj.bias.as_ref()?.val(),
+            w_heads: Tensor::cat(heads.iter().map(|h| h.weight.val()).collect(), 1),
+            b_heads: Tensor::cat(heads.iter().map(|h| bias(h)).collect(), 0),
+        };
+        let z = head_op::forward(rows, params)?; // [BC·G², Σ widths]
+        let mut at = 0;
+        let mut parts = heads.iter().map(|h| {
+            at += width(h);
+            z.clone().slice_dim(1, at - width(h)..at)
+        });
+        Some(OffsetOutputs {
+            cls: parts.next()?,
+            reg: parts.next()?,
+            dir: parts.next(),
+        })
     }
 
     /// Every BatchNorm's running statistics, in order: a training step that must be undone
@@ -334,6 +394,61 @@ mod tests {
             let worst = a.iter().zip(&b).fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
             assert!(worst <= 1e-4 * scale, "{what}: {worst} against {scale}");
         }
+    }
+
+    #[test]
+    fn the_fused_model_trains_as_the_composed_one() {
+        use burn::optim::{GradientsParams, SgdConfig};
+        let train = default_device().autodiff();
+        let cfg = StarNetConfig::small_car().with_direction_classifier(true);
+        let mut composed_cfg = cfg.clone();
+        composed_cfg.featurizer.fused = false;
+        let weights = randomised(&cfg.init(&train));
+        // Random features in the padded slots too: neither path may read them.
+        let x = input(&train, 2, 6, 16, 11);
+        let step = |cfg: &StarNetConfig| {
+            let model = crate::export::load_weights(cfg.init(&train), &weights).expect("same layout");
+            let out = model.forward(x.clone());
+            // Every output counts, each with its own weight.
+            let weigh = |t: Tensor<4>| {
+                let n = t.shape().num_elements();
+                let w: Vec<f32> = (0..n).map(|i| ((i * 37) % 11) as f32 / 11.0 - 0.4).collect();
+                (t.reshape([n]) * Tensor::<1>::from_floats(w.as_slice(), &train)).sum()
+            };
+            let dir = out.dir_logits.expect("direction logits");
+            let loss = weigh(out.cls_logits) + weigh(out.box_residuals) + weigh(dir);
+            let grads = GradientsParams::from_grads(loss.backward(), &model);
+            // Plain SGD at rate 1: each weight moves by exactly its gradient.
+            let mut sgd = SgdConfig::new().init();
+            let after = sgd.step(1.0, model, grads);
+            crate::export::named_tensors(&after.valid())
+        };
+        let (fused, composed) = (step(&cfg), step(&composed_cfg));
+        let mut compared = 0;
+        for (f, c) in fused.iter().zip(&composed) {
+            assert_eq!(f.name, c.name);
+            if f.name.contains("running") {
+                continue;
+            }
+            let before = &weights[&f.name].data;
+            let scale = c
+                .data
+                .iter()
+                .zip(before)
+                .fold(1e-6f32, |m, (a, b)| m.max((a - b).abs()));
+            let worst = f
+                .data
+                .iter()
+                .zip(&c.data)
+                .fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+            assert!(
+                worst <= 1e-4 * scale,
+                "{}: {worst} against a gradient of {scale}",
+                f.name
+            );
+            compared += 1;
+        }
+        assert!(compared >= 20, "every parameter: {compared}");
     }
 
     /// Every parameter of `model` replaced by a deterministic non-zero value.

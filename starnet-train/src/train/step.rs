@@ -299,7 +299,7 @@ mod tests {
     }
 
     #[test]
-    fn a_step_reports_its_terms_and_a_non_finite_loss_or_gradient_changes_nothing() {
+    fn a_step_reports_its_terms_a_non_finite_loss_changes_nothing_and_padded_slots_are_not_read() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/quickstart.toml");
         let cfg = load_config(&path, &["train.step_threads=1".into()]).unwrap();
         let device = starnet_model::backend::default_device().autodiff();
@@ -325,7 +325,8 @@ mod tests {
         assert!(matches!(err, TrainError::NonFiniteLoss { step: 1, .. }), "{err}");
         assert_eq!(named_tensors(trainer.model()), before);
         assert_eq!(trainer.state.step, 1);
-        // A NaN in a padded slot: the forward masks it away, fc0's weight gradient does not.
+        // A NaN in a padded slot: the fused featurizer never reads padded slots, so the step
+        // goes on; the composed blocks multiply it by the mask, and NaN · 0 is NaN.
         let mut padded = good;
         let slot = padded
             .frame
@@ -335,8 +336,45 @@ mod tests {
             .position(|m| !m)
             .expect("a padded slot");
         padded.frame.neighbourhoods.features[slot * NUM_FEATURES] = f32::NAN;
-        let err = trainer.step(&[vec![padded]], 1e-3).unwrap_err();
-        assert!(matches!(err, TrainError::NonFiniteGradient { step: 1, .. }), "{err}");
-        assert_eq!(named_tensors(trainer.model()), before);
+        let composed_cfg = load_config(
+            &path,
+            &["train.step_threads=1".into(), "model.fused_blocks=false".into()],
+        )
+        .unwrap();
+        let mut composed = Trainer::start(&composed_cfg, None, &device).unwrap();
+        let composed_before = named_tensors(composed.model());
+        let err = composed.step(&[vec![padded.clone()]], 1e-3).unwrap_err();
+        assert!(matches!(err, TrainError::NonFiniteLoss { step: 0, .. }), "{err}");
+        assert_eq!(named_tensors(composed.model()), composed_before);
+        let losses = trainer.step(&[vec![padded]], 1e-3).expect("padded slots are not read");
+        assert!(losses.loss.is_finite() && losses.grad_norm.is_finite() && trainer.state.step == 2);
+        assert_ne!(named_tensors(trainer.model()), before);
+    }
+
+    #[test]
+    fn a_finite_loss_with_a_non_finite_gradient_norm_is_an_error() {
+        let ok = StepLosses {
+            loss: 1.0,
+            classification: 0.5,
+            location: 0.1,
+            dimension: 0.1,
+            rotation: 0.1,
+            direction: 0.2,
+            grad_norm: 3.0,
+        };
+        assert!(non_finite(&ok, 7).is_none());
+        let bad = StepLosses {
+            grad_norm: f32::INFINITY,
+            ..ok
+        };
+        assert!(matches!(
+            non_finite(&bad, 7),
+            Some(TrainError::NonFiniteGradient { step: 7, .. })
+        ));
+        let both = StepLosses { loss: f32::NAN, ..bad };
+        assert!(matches!(
+            non_finite(&both, 7),
+            Some(TrainError::NonFiniteLoss { step: 7, .. })
+        ));
     }
 }

@@ -11,33 +11,25 @@
 //!   with `dy = dz · Wᵀ`, `Σ_rows dy = W Σ_rows dz` and `Σ_rows dy ⊙ x = Σ_k W ⊙ (xᵀ dz)`, so no
 //!   pass over the rows is spent on them.
 //!
-//! Rows are the `N · P` point slots, center-major; padded slots (mask 0) are zero on the way in
-//! and out and in every gradient, as in the composed block. Batch statistics are over real rows
-//! (the pooled half weighs each center by its real-point count, as the broadcast concat does).
+//! Rows are the real points of the N centers, packed center-major ([`Packed`]): a padded slot
+//! of the composed block's `[N, P]` layout, zero there on the way in and out and in every
+//! gradient, is simply absent. Batch statistics are over the real rows (the pooled half weighs
+//! each center by its real-point count, as the broadcast concat does).
 
 use super::gemm::{Mat, matmul_new, matmul_tn};
 use super::moments::Moments;
+use super::packed::Packed;
 use super::rows::{add, col_sums, for_rows, map_chunks, relu, relu_passes};
 
-/// The block's sizes.
+/// The block's widths.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BlockDims {
-    /// Centers N (B · C).
-    pub centers: usize,
-    /// Point slots per center P.
-    pub points: usize,
     /// Input width d.
     pub d_in: usize,
     /// Hidden width H.
     pub d_hidden: usize,
     /// Output width O.
     pub d_out: usize,
-}
-
-impl BlockDims {
-    fn rows(&self) -> usize {
-        self.centers * self.points
-    }
 }
 
 /// The block's parameters, in Burn's layouts (Linear weights `[d_in, d_out]`).
@@ -94,11 +86,11 @@ pub enum Normalization<'a> {
 /// What the forward computes besides its output, for the backward.
 #[derive(Debug, Clone)]
 pub struct BlockSaved {
-    /// The first layer's ReLU output `[N·P, H]`.
+    /// The first layer's ReLU output `[R, H]`.
     pub hidden: Vec<f32>,
-    /// Masked max over each center's points `[N, d]`.
+    /// Max over each center's points `[N, d]` (0 for a center without any).
     pub pooled: Vec<f32>,
-    /// Which point slot gave each pooled value `[N, d]` (the first of equal ones).
+    /// Which of its center's rows gave each pooled value `[N, d]` (the first of equal ones).
     pub argmax: Vec<u32>,
     /// BN₁'s statistics `[2d]`.
     pub bn1: BnStats,
@@ -109,7 +101,7 @@ pub struct BlockSaved {
 /// Gradients with respect to the block's input and parameters (shapes as theirs).
 #[derive(Debug, Clone)]
 pub struct BlockGrads {
-    /// `[N·P, d]`.
+    /// `[R, d]`.
     pub x: Vec<f32>,
     /// `[2d]`.
     pub gamma1: Vec<f32>,
@@ -125,35 +117,24 @@ pub struct BlockGrads {
     pub w2: Vec<f32>,
 }
 
-/// Max over each center's real points, with the slot it came from. Inputs are ReLU outputs
-/// (≥ 0) zero in padded slots, so, as in the composed block, the max of `x · mask` is taken over
-/// every slot and a center with no real point pools to 0.
-fn pool_max(x: &[f32], mask: &[f32], dims: BlockDims) -> (Vec<f32>, Vec<u32>) {
-    let (p, d) = (dims.points, dims.d_in);
-    let mut pooled = vec![0.0; dims.centers * d];
-    let mut argmax = vec![0u32; dims.centers * d];
-    for n in 0..dims.centers {
+/// Max over each center's points, with the row it came from. Inputs are ReLU outputs (≥ 0),
+/// so this is the composed block's max of `x · mask` over every slot; a center with no real
+/// point pools to 0.
+fn pool_max(x: &[f32], rows: &Packed, d: usize) -> (Vec<f32>, Vec<u32>) {
+    let mut pooled = vec![0.0; rows.centers() * d];
+    let mut argmax = vec![0u32; rows.centers() * d];
+    for n in 0..rows.centers() {
         let (g, idx) = (&mut pooled[n * d..(n + 1) * d], &mut argmax[n * d..(n + 1) * d]);
-        for s in 0..p {
-            let r = n * p + s;
-            let m = mask[r];
+        for (k, r) in rows.range(n).enumerate() {
             for ((g, i), x) in g.iter_mut().zip(idx.iter_mut()).zip(&x[r * d..(r + 1) * d]) {
                 // Selects rather than branches, so the loop vectorises.
-                let take = s == 0 || x * m > *g;
-                *g = if take { x * m } else { *g };
-                *i = if take { s as u32 } else { *i };
+                let take = k == 0 || *x > *g;
+                *g = if take { *x } else { *g };
+                *i = if take { k as u32 } else { *i };
             }
         }
     }
     (pooled, argmax)
-}
-
-/// Real points per center.
-fn counts(mask: &[f32], dims: BlockDims) -> Vec<f32> {
-    mask.chunks(dims.points.max(1))
-        .take(dims.centers)
-        .map(|m| m.iter().sum())
-        .collect()
 }
 
 /// `(s, t)` of the folded BatchNorm: `BN(x) = x s + t`.
@@ -202,11 +183,11 @@ fn normalize_pooled(pooled: &[f32], s: &[f32], t: &[f32]) -> Vec<f32> {
 /// The training (batch statistics) or evaluation (fixed statistics) forward.
 ///
 /// # Shapes
-/// - `x`: `[N·P, d]` (≥ 0, zero in padded rows), `mask`: `[N·P]` (1.0 real, 0.0 padded)
-/// - returns the output `[N·P, O]` (zero in padded rows) and what the backward needs
+/// - `x`: `[R, d]` (≥ 0), the rows of `rows`
+/// - returns the output `[R, O]` and what the backward needs
 pub fn forward(
     x: &[f32],
-    mask: &[f32],
+    rows: &Packed,
     params: BlockParams,
     dims: BlockDims,
     norm: Normalization,
@@ -215,36 +196,30 @@ pub fn forward(
         d_in: d,
         d_hidden: h,
         d_out: o,
-        ..
     } = dims;
-    let (rows, p) = (dims.rows(), dims.points);
-    let (pooled, argmax) = pool_max(x, mask, dims);
+    let (pooled, argmax) = pool_max(x, rows, d);
     let bn1 = match norm {
-        Normalization::Batch => batch_stats_bn1(x, mask, &pooled, dims),
+        Normalization::Batch => batch_stats_bn1(x, rows, &pooled, d),
         Normalization::Fixed { bn1, .. } => bn1.clone(),
     };
     let (s1, t1) = fold(params.gamma1, params.beta1, &bn1, params.epsilon);
     let (w1x, w1g) = params.w1.split_at(d * h);
     // Per center: the point half's shift and the whole pooled half, `[N, H]`.
     let yg = normalize_pooled(&pooled, &s1[d..], &t1[d..]);
-    let mut per_center = matmul_new(Mat::new(&yg, dims.centers, d), false, Mat::new(w1g, d, h), false);
+    let mut per_center = matmul_new(Mat::new(&yg, rows.centers(), d), false, Mat::new(w1g, d, h), false);
     let shift = row_times(&t1[..d], w1x, h);
     for_rows(&mut per_center, h, |_, row| add(row, &shift));
     let w1s = scale_rows(w1x, &s1[..d], h);
-    let mut hidden = matmul_new(Mat::new(x, rows, d), false, Mat::new(&w1s, d, h), false);
+    let mut hidden = matmul_new(Mat::new(x, rows.rows(), d), false, Mat::new(&w1s, d, h), false);
     let batch = matches!(norm, Normalization::Batch);
     // The ReLU pass also takes BN₂'s batch moments, chunk by chunk while the rows are in cache.
     let parts = map_chunks(&mut hidden, h, |r0, chunk| {
         for (i, row) in chunk.chunks_exact_mut(h).enumerate() {
-            let r = r0 + i;
-            if mask[r] == 0.0 {
-                row.fill(0.0);
-                continue;
-            }
-            let c = &per_center[(r / p) * h..(r / p + 1) * h];
+            let n = rows.center_of(r0 + i);
+            let c = &per_center[n * h..(n + 1) * h];
             row.iter_mut().zip(c).for_each(|(v, c)| *v = relu(*v + c));
         }
-        batch.then(|| Moments::of_rows(chunk, h, &mask[r0..r0 + chunk.len() / h]))
+        batch.then(|| Moments::of_rows(chunk, h, None))
     });
     let bn2 = match norm {
         Normalization::Batch => Moments::merge_all(parts.into_iter().flatten().collect(), h)
@@ -255,11 +230,8 @@ pub fn forward(
     let (s2, t2) = fold(params.gamma2, params.beta2, &bn2, params.epsilon);
     let bias2 = row_times(&t2, params.w2, o);
     let w2s = scale_rows(params.w2, &s2, o);
-    let mut out = matmul_new(Mat::new(&hidden, rows, h), false, Mat::new(&w2s, h, o), false);
-    for_rows(&mut out, o, |r, row| {
-        if mask[r] == 0.0 {
-            return row.fill(0.0);
-        }
+    let mut out = matmul_new(Mat::new(&hidden, rows.rows(), h), false, Mat::new(&w2s, h, o), false);
+    for_rows(&mut out, o, |_, row| {
         row.iter_mut().zip(&bias2).for_each(|(v, b)| *v = relu(*v + b));
     });
     (
@@ -276,9 +248,9 @@ pub fn forward(
 
 /// BN₁'s batch statistics: the point half over real rows, the pooled half over the same rows
 /// (each center's pooled value counted once per real point).
-fn batch_stats_bn1(x: &[f32], mask: &[f32], pooled: &[f32], dims: BlockDims) -> BnStats {
-    let points = Moments::of_rows_chunked(x, dims.d_in, mask).across_replicas().stats();
-    let centers = Moments::of_rows_chunked(pooled, dims.d_in, &counts(mask, dims))
+fn batch_stats_bn1(x: &[f32], rows: &Packed, pooled: &[f32], d: usize) -> BnStats {
+    let points = Moments::of_rows_chunked(x, d, None).across_replicas().stats();
+    let centers = Moments::of_rows_chunked(pooled, d, Some(&rows.counts()))
         .across_replicas()
         .stats();
     BnStats {
@@ -325,14 +297,14 @@ impl BnSums {
 
 /// BatchNorm's backward over weighted rows (batch statistics): `dγ = Σ w dy x̂`, `dβ = Σ w dy`,
 /// and, written into `dy`, `dx = (γ/σ)(dy − w (dβ + x̂ dγ) / M)`, where the weight `w` is a
-/// row's multiplicity (1 for a point row; a center's real-point count for a pooled row, whose
-/// `dy` is already the sum over its points) and rows of weight 0 get 0.
+/// row's multiplicity (1 for a point row, `weight` `None`; a center's real-point count for a
+/// pooled row, whose `dy` is already the sum over its points) and rows of weight 0 get 0.
 struct BnBackward<'a> {
     x: &'a [f32],
     stats: BnStats,
     gamma: &'a [f32],
     eps: f32,
-    weight: &'a [f32],
+    weight: Option<&'a [f32]>,
     total: f32,
     /// `x` is a ReLU's output and the gradient goes on through it: zero where `x` is not > 0.
     through_relu: bool,
@@ -348,7 +320,7 @@ impl BnBackward<'_> {
     fn sums(&self, dy: &[f32]) -> BnSums {
         let (cols, mean) = (self.gamma.len(), &self.stats.mean);
         // A pooled row's dy is already the sum over its points: it counts once here.
-        let [dy_sum, dy_centered] = col_sums(self.weight.len(), cols, |r, [db, dd]| {
+        let [dy_sum, dy_centered] = col_sums(self.x.len() / cols.max(1), cols, |r, [db, dd]| {
             let g = &dy[r * cols..(r + 1) * cols];
             add(db, g);
             for ((d, g), (x, m)) in dd.iter_mut().zip(g).zip(self.row(r).iter().zip(mean)) {
@@ -381,7 +353,7 @@ impl BnBackward<'_> {
             .map(|(d, s)| d * s * s / self.total)
             .collect();
         for_rows(dy, cols, |r, row| {
-            let w = self.weight[r];
+            let w = self.weight.map_or(1.0, |w| w[r]);
             if w == 0.0 {
                 return row.fill(0.0);
             }
@@ -433,7 +405,7 @@ pub(super) fn relu_backward_sum(grad: &mut [f32], out: &[f32], cols: usize) -> V
 }
 
 /// Column sums of `x` (`[rows, cols]`), in fixed chunks.
-fn column_sums(x: &[f32], cols: usize) -> Vec<f32> {
+pub(super) fn column_sums(x: &[f32], cols: usize) -> Vec<f32> {
     let [sum] = col_sums(x.len() / cols.max(1), cols, |r, [acc]| {
         add(acc, &x[r * cols..(r + 1) * cols])
     });
@@ -460,19 +432,19 @@ pub struct Forward<'a> {
 /// The backward of the training forward ([`Normalization::Batch`]).
 ///
 /// # Shapes
-/// - `x`, `mask`: as in [`forward`]; `out`, `fwd`: its results; `d_out`: `[N·P, O]`
+/// - `x`, `rows`: as in [`forward`]; `fwd`: its results; `d_out`: `[R, O]`
 pub fn backward(
     x: &[f32],
-    mask: &[f32],
+    rows: &Packed,
     params: BlockParams,
     dims: BlockDims,
     fwd: Forward,
     d_out: &[f32],
 ) -> BlockGrads {
     // The whole batch's real rows, over the replica group when training data-parallel.
-    let total = crate::replicas::sum_scalar(mask.iter().sum::<f32>()).max(1.0);
-    let second = second_layer_backward(mask, params, dims, fwd, d_out, total);
-    let first = first_layer_backward(x, mask, params, dims, fwd.saved, second.dz1, total);
+    let total = crate::replicas::sum_scalar(rows.rows() as f32).max(1.0);
+    let second = second_layer_backward(rows.rows(), params, dims, fwd, d_out, total);
+    let first = first_layer_backward(x, rows, params, dims, fwd.saved, second.dz1, total);
     BlockGrads {
         x: first.dx,
         gamma1: first.gamma1,
@@ -486,7 +458,7 @@ pub fn backward(
 
 /// The second layer's gradients, and the first layer's pre-activation gradient.
 struct SecondLayerGrads {
-    /// `[N·P, H]`.
+    /// `[R, H]`.
     dz1: Vec<f32>,
     gamma2: Vec<f32>,
     beta2: Vec<f32>,
@@ -495,14 +467,14 @@ struct SecondLayerGrads {
 
 /// BN₂ → fc2 → ReLU, backwards.
 fn second_layer_backward(
-    mask: &[f32],
+    rows: usize,
     params: BlockParams,
     dims: BlockDims,
     fwd: Forward,
     d_out: &[f32],
     total: f32,
 ) -> SecondLayerGrads {
-    let (rows, h, o) = (dims.rows(), dims.d_hidden, dims.d_out);
+    let (h, o) = (dims.d_hidden, dims.d_out);
     let mut dz2 = d_out.to_vec();
     let dz2_sum = relu_backward_sum(&mut dz2, fwd.out, o);
     let fwd = fwd.saved;
@@ -515,7 +487,7 @@ fn second_layer_backward(
         stats: fwd.bn2.clone(),
         gamma: params.gamma2,
         eps: params.epsilon,
-        weight: mask,
+        weight: None,
         total,
         through_relu: true,
     };
@@ -537,10 +509,10 @@ struct FirstLayerGrads {
     w1: Vec<f32>,
 }
 
-/// max-pool → BN₁ → fc1, backwards, from fc1's pre-activation gradient `dz1` `[N·P, H]`.
+/// max-pool → BN₁ → fc1, backwards, from fc1's pre-activation gradient `dz1` `[R, H]`.
 fn first_layer_backward(
     x: &[f32],
-    mask: &[f32],
+    rows: &Packed,
     params: BlockParams,
     dims: BlockDims,
     fwd: &BlockSaved,
@@ -548,27 +520,23 @@ fn first_layer_backward(
     total: f32,
 ) -> FirstLayerGrads {
     let BlockDims {
-        centers,
-        points: p,
-        d_in: d,
-        d_hidden: h,
-        ..
+        d_in: d, d_hidden: h, ..
     } = dims;
-    let rows = dims.rows();
+    let centers = rows.centers();
     let (s1, t1) = fold(params.gamma1, params.beta1, &fwd.bn1, params.epsilon);
     let (w1x, w1g) = params.w1.split_at(d * h);
     // The pooled half's gradient, summed over each center's points `[N, H]`.
     let mut dz_center = vec![0.0; centers * h];
     for_rows(&mut dz_center, h, |n, row| {
-        for r in n * p..(n + 1) * p {
+        for r in rows.range(n) {
             row.iter_mut().zip(&dz1[r * h..(r + 1) * h]).for_each(|(a, g)| *a += g);
         }
     });
     // Σ over the rows is Σ over the centers' sums.
     let dz1_sum = column_sums(&dz_center, h);
     let first = folded_weight_grad(
-        Mat::new(x, rows, d),
-        Mat::new(&dz1, rows, h),
+        Mat::new(x, rows.rows(), d),
+        Mat::new(&dz1, rows.rows(), h),
         &dz1_sum,
         &s1[..d],
         &t1[..d],
@@ -578,7 +546,7 @@ fn first_layer_backward(
     let w1_pooled = matmul_tn(Mat::new(&yg, centers, d), Mat::new(&dz_center, centers, h));
     w1.extend_from_slice(&w1_pooled);
     let mut d_pooled = matmul_new(Mat::new(&dz_center, centers, h), false, Mat::new(w1g, d, h), true);
-    let mut dx = matmul_new(Mat::new(&dz1, rows, h), false, Mat::new(w1x, d, h), true);
+    let mut dx = matmul_new(Mat::new(&dz1, rows.rows(), h), false, Mat::new(w1x, d, h), true);
     drop(dz1);
     let half = |from: usize, to: usize| BnStats {
         mean: fwd.bn1.mean[from..to].to_vec(),
@@ -590,24 +558,24 @@ fn first_layer_backward(
         stats: half(0, d),
         gamma: gamma.0,
         eps,
-        weight: mask,
+        weight: None,
         total,
         through_relu: false,
     };
     let sums = BnSums::through(w1x, &dz1_sum, &first.xt_dz, &points.stats.mean);
     let (gamma_x, beta_x) = points.apply(sums, &mut dx);
-    let counts = counts(mask, dims);
+    let counts = rows.counts();
     let pooled = BnBackward {
         x: &fwd.pooled,
         stats: half(d, 2 * d),
         gamma: gamma.1,
         eps,
-        weight: &counts,
+        weight: Some(&counts),
         total,
         through_relu: false,
     };
     let (gamma_g, beta_g) = pooled.apply(pooled.sums(&d_pooled), &mut d_pooled);
-    scatter_pooled(&mut dx, &d_pooled, fwd, mask, dims);
+    scatter_pooled(&mut dx, &d_pooled, fwd, rows, d);
     FirstLayerGrads {
         dx,
         gamma1: [gamma_x, gamma_g].concat(),
@@ -616,14 +584,14 @@ fn first_layer_backward(
     }
 }
 
-/// Routes each pooled value's gradient to the slot it was taken from (the max's backward),
-/// through the mask the composed block multiplies by before the max.
-fn scatter_pooled(dx: &mut [f32], grad_g: &[f32], fwd: &BlockSaved, mask: &[f32], dims: BlockDims) {
-    let (p, d) = (dims.points, dims.d_in);
-    for n in 0..dims.centers {
+/// Routes each pooled value's gradient to the row it was taken from (the max's backward); a
+/// center without points has none.
+fn scatter_pooled(dx: &mut [f32], grad_g: &[f32], fwd: &BlockSaved, rows: &Packed, d: usize) {
+    for n in (0..rows.centers()).filter(|&n| !rows.range(n).is_empty()) {
+        let first = rows.range(n).start;
         for c in 0..d {
-            let r = n * p + fwd.argmax[n * d + c] as usize;
-            dx[r * d + c] += grad_g[n * d + c] * mask[r];
+            let r = first + fwd.argmax[n * d + c] as usize;
+            dx[r * d + c] += grad_g[n * d + c];
         }
     }
 }

@@ -19,17 +19,24 @@ pub struct Moments {
 
 impl Moments {
     /// Of the `cols`-wide rows of `x`, row `r` weighted by `w[r]` (a count: rows of weight 0
-    /// are not read).
-    pub fn of_rows(x: &[f32], cols: usize, w: &[f32]) -> Self {
-        let weight: f32 = w.iter().sum();
+    /// are not read), or each by 1 without `w`.
+    pub fn of_rows(x: &[f32], cols: usize, w: Option<&[f32]>) -> Self {
+        let rows = x.len() / cols.max(1);
+        let weight: f32 = w.map_or(rows as f32, |w| w.iter().sum());
         let (mut mean, mut m2) = (vec![0.0; cols], vec![0.0; cols]);
         if weight == 0.0 || cols == 0 {
             return Self { weight, mean, m2 };
         }
-        let weighted = || x.chunks_exact(cols).zip(w).filter(|(_, w)| **w != 0.0);
-        weighted().for_each(|(row, &w)| add_scaled(&mut mean, row, w));
+        let weight_of = |r: usize| w.map_or(1.0, |w| w[r]);
+        let weighted = || {
+            x.chunks_exact(cols)
+                .enumerate()
+                .map(move |(r, row)| (row, weight_of(r)))
+                .filter(|(_, w)| *w != 0.0)
+        };
+        weighted().for_each(|(row, w)| add_scaled(&mut mean, row, w));
         mean.iter_mut().for_each(|m| *m /= weight);
-        for (row, &w) in weighted() {
+        for (row, w) in weighted() {
             for ((a, x), m) in m2.iter_mut().zip(row).zip(&mean) {
                 *a += w * (x - m) * (x - m);
             }
@@ -38,9 +45,9 @@ impl Moments {
     }
 
     /// Of `x`'s rows, chunk by chunk in parallel.
-    pub fn of_rows_chunked(x: &[f32], cols: usize, w: &[f32]) -> Self {
+    pub fn of_rows_chunked(x: &[f32], cols: usize, w: Option<&[f32]>) -> Self {
         let parts = read_chunks(x, cols, |r0, chunk| {
-            Self::of_rows(chunk, cols, &w[r0..r0 + chunk.len() / cols])
+            Self::of_rows(chunk, cols, w.map(|w| &w[r0..r0 + chunk.len() / cols]))
         });
         Self::merge_all(parts, cols)
     }
@@ -149,7 +156,12 @@ mod tests {
         let w: Vec<f32> = (0..700)
             .map(|r| if (250..520).contains(&r) { 0.0 } else { (r % 4) as f32 })
             .collect();
-        let got = Moments::of_rows_chunked(&x, cols, &w).stats();
+        let got = Moments::of_rows_chunked(&x, cols, Some(&w)).stats();
+        // Without weights, every row weighs 1.
+        assert_eq!(
+            Moments::of_rows_chunked(&x, cols, None),
+            Moments::of_rows_chunked(&x, cols, Some(&[1.0; 700]))
+        );
         let (mean, var) = direct(&x, cols, &w);
         for j in 0..cols {
             assert!(
@@ -162,7 +174,7 @@ mod tests {
 
     #[test]
     fn rows_without_weight_give_zero_statistics() {
-        let got = Moments::of_rows_chunked(&[5.0; 600], 2, &[0.0; 300]).stats();
+        let got = Moments::of_rows_chunked(&[5.0; 600], 2, Some(&[0.0; 300])).stats();
         assert_eq!(
             got,
             BnStats {
@@ -175,8 +187,8 @@ mod tests {
     #[test]
     fn merging_is_the_moments_of_the_union() {
         // {1, 3} and {6}: mean 10/3, Σ (x − mean)² = 49/9 + 1/9 + 64/9 = 114/9.
-        let a = Moments::of_rows(&[1.0, 3.0], 1, &[1.0, 1.0]);
-        let b = Moments::of_rows(&[6.0], 1, &[1.0]);
+        let a = Moments::of_rows(&[1.0, 3.0], 1, None);
+        let b = Moments::of_rows(&[6.0], 1, Some(&[1.0]));
         let s = a.merge(b).stats();
         assert!((s.mean[0] - 10.0 / 3.0).abs() < 1e-6);
         assert!((s.var[0] - 114.0 / 27.0).abs() < 1e-5);

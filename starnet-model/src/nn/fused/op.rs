@@ -1,9 +1,11 @@
 //! The fused block as a Burn operation on flex: the training forward records one autodiff node
 //! whose backward is [`kernel::backward`]; the evaluation forward runs on plain flex tensors.
-//! Both return `None` when the tensors live elsewhere (another backend, another dtype, a
+//! Both run on the real points only ([`Packed`]; padded slots come back as zeros). Both return
+//! `None` when the tensors live elsewhere (another backend, another dtype, a
 //! gradient-checkpointing strategy), and the caller then takes the composed path.
 
 use super::kernel::{self, BlockDims, BlockParams, BlockSaved, BlockStats, BnStats, Forward, Normalization};
+use super::packed::Packed;
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;
@@ -55,15 +57,15 @@ pub(crate) fn flex(values: Vec<f32>, shape: Vec<usize>) -> FlexTensor {
     FlexTensor::from_data(TensorData::new(values, shape))
 }
 
-fn dims(x: &Tensor<3>, h: usize, o: usize) -> BlockDims {
+/// The padded layout's `[N, P]` and the block's widths.
+fn dims(x: &Tensor<3>, h: usize, o: usize) -> ([usize; 2], BlockDims) {
     let [centers, points, d_in] = x.dims();
-    BlockDims {
-        centers,
-        points,
+    let dims = BlockDims {
         d_in,
         d_hidden: h,
         d_out: o,
-    }
+    };
+    ([centers, points], dims)
 }
 
 /// The seven float inputs in order: x, γ₁, β₁, W₁, γ₂, β₂, W₂ (the mask is separate).
@@ -96,7 +98,7 @@ pub fn forward_eval(
     bn2: &BnStats,
 ) -> Option<Tensor<3>> {
     let [h, o] = params.w2.dims();
-    let dims = dims(&x, h, o);
+    let ([n, p], dims) = dims(&x, h, o);
     let eps = params.epsilon;
     let prims: Vec<FlexTensor> = inputs(x, params)
         .into_iter()
@@ -105,8 +107,10 @@ pub fn forward_eval(
     let mask = mask.try_into_primitive::<Flex>().ok()?;
     let v: Vec<Cow<[f32]>> = prims.iter().map(values).collect();
     let params = block_params(&v, eps);
-    let (out, _) = kernel::forward(&v[0], &values(&mask), params, dims, Normalization::Fixed { bn1, bn2 });
-    let out = flex(out, vec![dims.centers, dims.points, dims.d_out]);
+    let rows = Packed::from_mask(&values(&mask), p);
+    let x = rows.pack(&v[0], dims.d_in);
+    let (out, _) = kernel::forward(&x, &rows, params, dims, Normalization::Fixed { bn1, bn2 });
+    let out = flex(rows.unpack(&out, dims.d_out, n * p), vec![n, p, dims.d_out]);
     Some(Tensor::from_primitive::<Flex>(out))
 }
 
@@ -127,10 +131,12 @@ fn block_params<'a>(v: &'a [Cow<'a, [f32]>], epsilon: f32) -> BlockParams<'a> {
 struct Saved {
     /// x, γ₁, β₁, W₁, γ₂, β₂, W₂ (flattened).
     inputs: Arc<Vec<FlexTensor>>,
-    mask: FlexTensor,
+    rows: Arc<Packed>,
+    /// The real rows of x `[R, d]` and of the output `[R, O]`.
+    x: Arc<Vec<f32>>,
+    out: Arc<Vec<f32>>,
     dims: BlockDims,
     epsilon: f32,
-    out: FlexTensor,
     saved: Arc<BlockSaved>,
 }
 
@@ -144,15 +150,16 @@ impl Backward<Flex, 7> for FusedBlockBackward {
         let d_out = grads.consume::<Flex>(&ops.node);
         let s = ops.state;
         let v: Vec<Cow<[f32]>> = s.inputs.iter().map(values).collect();
-        let out = values(&s.out);
         let fwd = Forward {
-            out: &out,
+            out: &s.out,
             saved: &s.saved,
         };
         let params = block_params(&v, s.epsilon);
-        let g = kernel::backward(&v[0], &values(&s.mask), params, s.dims, fwd, &values(&d_out));
+        let d_out = s.rows.pack(&values(&d_out), s.dims.d_out);
+        let g = kernel::backward(&s.x, &s.rows, params, s.dims, fwd, &d_out);
         let shapes = s.inputs.iter().map(|t| t.layout().shape().to_vec());
-        let values = [g.x, g.gamma1, g.beta1, g.w1, g.gamma2, g.beta2, g.w2];
+        let dx = s.rows.unpack(&g.x, s.dims.d_in, v[0].len() / s.dims.d_in.max(1));
+        let values = [dx, g.gamma1, g.beta1, g.w1, g.gamma2, g.beta2, g.w2];
         for ((parent, grad), shape) in ops.parents.into_iter().zip(values).zip(shapes) {
             if let Some(node) = parent {
                 grads.register::<Flex>(node.id, flex(grad, shape));
@@ -167,7 +174,7 @@ impl Backward<Flex, 7> for FusedBlockBackward {
 /// - `x`: `[N, P, d]` (≥ 0, zero in padded slots), `mask`: `[N, P]`; output `[N, P, O]`
 pub fn forward_train(x: Tensor<3>, mask: Tensor<2>, params: ParamTensors) -> Option<TrainOutput> {
     let [h, o] = params.w2.dims();
-    let dims = dims(&x, h, o);
+    let ([n, p], dims) = dims(&x, h, o);
     let epsilon = params.epsilon;
     let ad: Vec<_> = inputs(x, params)
         .into_iter()
@@ -180,8 +187,10 @@ pub fn forward_train(x: Tensor<3>, mask: Tensor<2>, params: ParamTensors) -> Opt
     }
     let v: Vec<Cow<[f32]>> = prims.iter().map(values).collect();
     let params = block_params(&v, epsilon);
-    let (out, saved) = kernel::forward(&v[0], &values(&mask), params, dims, Normalization::Batch);
-    let out = flex(out, vec![dims.centers, dims.points, dims.d_out]);
+    let rows = Packed::from_mask(&values(&mask), p);
+    let x = rows.pack(&v[0], dims.d_in);
+    let (out, saved) = kernel::forward(&x, &rows, params, dims, Normalization::Batch);
+    let dense = flex(rows.unpack(&out, dims.d_out, n * p), vec![n, p, dims.d_out]);
     let (bn1, bn2) = (saved.bn1.clone(), saved.bn2.clone());
     drop(v);
     let guards: [_; 7] = guards.try_into().expect("seven inputs");
@@ -194,15 +203,16 @@ pub fn forward_train(x: Tensor<3>, mask: Tensor<2>, params: ParamTensors) -> Opt
             let saved = Arc::new(saved);
             let state = Saved {
                 inputs: Arc::new(prims),
-                mask,
+                rows: Arc::new(rows),
+                x: Arc::new(x),
+                out: Arc::new(out),
                 dims,
                 epsilon,
-                out: out.clone(),
                 saved,
             };
-            prep.finish(state, out)
+            prep.finish(state, dense)
         }
-        OpsKind::UnTracked(prep) => prep.finish(out),
+        OpsKind::UnTracked(prep) => prep.finish(dense),
     };
     Some(TrainOutput {
         out: Tensor::from_primitive::<Autodiff<Flex>>(out),

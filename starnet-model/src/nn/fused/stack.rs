@@ -6,15 +6,12 @@
 
 use super::gemm::{Mat, matmul_new, matmul_tn};
 use super::kernel::{self, BlockDims, BlockGrads, BlockParams, BlockSaved, Forward, Normalization, relu_backward_sum};
+use super::packed::Packed;
 use super::rows::{add, add_scaled, for_rows, relu};
 
-/// The featurizer's sizes.
+/// The featurizer's widths.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct StackDims {
-    /// Centers N (B · C).
-    pub centers: usize,
-    /// Point slots per center P.
-    pub points: usize,
     /// Per-point input features F.
     pub d_input: usize,
     /// fc0's width d0.
@@ -24,10 +21,6 @@ pub struct StackDims {
 }
 
 impl StackDims {
-    fn rows(&self) -> usize {
-        self.centers * self.points
-    }
-
     /// Width of every layer's output, fc0 first: the readout's pieces.
     pub fn widths(&self) -> Vec<usize> {
         std::iter::once(self.d_fc0)
@@ -43,8 +36,6 @@ impl StackDims {
     fn block(&self, k: usize) -> BlockDims {
         let [d_hidden, d_out] = self.blocks[k];
         BlockDims {
-            centers: self.centers,
-            points: self.points,
             d_in: self.widths()[k],
             d_hidden,
             d_out,
@@ -66,7 +57,7 @@ pub struct StackParams<'a> {
 /// What the forward keeps for the backward.
 #[derive(Debug, Clone)]
 pub struct StackSaved {
-    /// Every layer's output `[N·P, width]`, fc0's first.
+    /// Every layer's output `[R, width]`, fc0's first.
     pub outputs: Vec<Vec<f32>>,
     /// Each block's own.
     pub blocks: Vec<BlockSaved>,
@@ -75,7 +66,7 @@ pub struct StackSaved {
 /// Gradients with respect to the input and every parameter.
 #[derive(Debug, Clone)]
 pub struct StackGrads {
-    /// `[N·P, F]`.
+    /// `[R, F]`.
     pub x: Vec<f32>,
     /// `[F, d0]`.
     pub w0: Vec<f32>,
@@ -86,33 +77,26 @@ pub struct StackGrads {
 }
 
 /// `1 / max(real points, 1)` per center: the readout's divisor.
-fn inverse_counts(mask: &[f32], dims: &StackDims) -> Vec<f32> {
-    mask.chunks(dims.points.max(1))
-        .take(dims.centers)
-        .map(|m| 1.0 / m.iter().sum::<f32>().max(1.0))
-        .collect()
+fn inverse_counts(rows: &Packed) -> Vec<f32> {
+    rows.counts().into_iter().map(|c| 1.0 / c.max(1.0)).collect()
 }
 
-/// fc0: `relu(x W₀ + b₀)` in real rows, 0 in padded ones `[N·P, d0]`.
-fn fc0(x: &[f32], mask: &[f32], w0: &[f32], b0: &[f32], dims: &StackDims) -> Vec<f32> {
-    let (rows, f, d0) = (dims.rows(), dims.d_input, dims.d_fc0);
-    let mut h = matmul_new(Mat::new(x, rows, f), false, Mat::new(w0, f, d0), false);
-    for_rows(&mut h, d0, |r, row| {
-        if mask[r] == 0.0 {
-            return row.fill(0.0);
-        }
+/// fc0: `relu(x W₀ + b₀)` `[R, d0]`.
+fn fc0(x: &[f32], rows: &Packed, w0: &[f32], b0: &[f32], dims: &StackDims) -> Vec<f32> {
+    let (f, d0) = (dims.d_input, dims.d_fc0);
+    let mut h = matmul_new(Mat::new(x, rows.rows(), f), false, Mat::new(w0, f, d0), false);
+    for_rows(&mut h, d0, |_, row| {
         row.iter_mut().zip(b0).for_each(|(v, b)| *v = relu(*v + b));
     });
     h
 }
 
-/// Writes each center's mean of `h` (`[N·P, w]`) into columns `from..from + w` of `cell`.
-fn read_out(cell: &mut [f32], h: &[f32], from: usize, inv: &[f32], dims: &StackDims) {
-    let (p, cell_dim) = (dims.points, dims.cell_dim());
-    let w = h.len() / dims.rows().max(1);
+/// Writes each center's mean of `h` (`[R, w]`) into columns `from..from + w` of `cell`.
+fn read_out(cell: &mut [f32], h: &[f32], from: usize, inv: &[f32], rows: &Packed, cell_dim: usize) {
+    let w = h.len() / rows.rows().max(1);
     for_rows(cell, cell_dim, |n, row| {
         let out = &mut row[from..from + w];
-        for r in n * p..(n + 1) * p {
+        for r in rows.range(n) {
             add(out, &h[r * w..(r + 1) * w]);
         }
         out.iter_mut().for_each(|v| *v *= inv[n]);
@@ -122,38 +106,44 @@ fn read_out(cell: &mut [f32], h: &[f32], from: usize, inv: &[f32], dims: &StackD
 /// The training (`norms` all [`Normalization::Batch`]) or evaluation forward.
 ///
 /// # Shapes
-/// - `x`: `[N·P, F]`, `mask`: `[N·P]` (1.0 real, 0.0 padded), `norms`: one per block
+/// - `x`: `[R, F]`, the rows of `rows`; `norms`: one per block
 /// - returns the cell features `[N, cell_dim]` and what the backward needs
 pub fn forward(
     x: &[f32],
-    mask: &[f32],
+    rows: &Packed,
     params: &StackParams,
     dims: &StackDims,
     norms: &[Normalization],
 ) -> (Vec<f32>, StackSaved) {
-    let inv = inverse_counts(mask, dims);
-    let mut cell = vec![0.0; dims.centers * dims.cell_dim()];
-    let mut outputs = vec![fc0(x, mask, params.w0, params.b0, dims)];
+    let (inv, cell_dim) = (inverse_counts(rows), dims.cell_dim());
+    let mut cell = vec![0.0; rows.centers() * cell_dim];
+    let mut outputs = vec![fc0(x, rows, params.w0, params.b0, dims)];
     let mut blocks = Vec::with_capacity(dims.blocks.len());
     let mut from = 0;
     for (k, (bp, norm)) in params.blocks.iter().zip(norms).enumerate() {
         let input = &outputs[k];
-        read_out(&mut cell, input, from, &inv, dims);
+        read_out(&mut cell, input, from, &inv, rows, cell_dim);
         from += dims.widths()[k];
-        let (out, saved) = kernel::forward(input, mask, *bp, dims.block(k), *norm);
+        let (out, saved) = kernel::forward(input, rows, *bp, dims.block(k), *norm);
         outputs.push(out);
         blocks.push(saved);
     }
-    read_out(&mut cell, outputs.last().expect("fc0's output"), from, &inv, dims);
+    read_out(
+        &mut cell,
+        outputs.last().expect("fc0's output"),
+        from,
+        &inv,
+        rows,
+        cell_dim,
+    );
     (cell, StackSaved { outputs, blocks })
 }
 
 /// `grad += ` each row's share of its center's readout gradient (columns `from..` of `d_cell`).
-fn add_readout_grad(grad: &mut [f32], d_cell: &[f32], from: usize, inv: &[f32], dims: &StackDims) {
-    let (p, cell_dim) = (dims.points, dims.cell_dim());
-    let w = grad.len() / dims.rows().max(1);
+fn add_readout_grad(grad: &mut [f32], d_cell: &[f32], from: usize, inv: &[f32], rows: &Packed, cell_dim: usize) {
+    let w = grad.len() / rows.rows().max(1);
     for_rows(grad, w, |r, row| {
-        let n = r / p;
+        let n = rows.center_of(r);
         add_scaled(row, &d_cell[n * cell_dim + from..n * cell_dim + from + w], inv[n]);
     });
 }
@@ -161,33 +151,33 @@ fn add_readout_grad(grad: &mut [f32], d_cell: &[f32], from: usize, inv: &[f32], 
 /// The backward of the training forward.
 ///
 /// # Shapes
-/// - `x`, `mask`: as in [`forward`]; `saved`: its; `d_cell`: `[N, cell_dim]`
+/// - `x`, `rows`: as in [`forward`]; `saved`: its; `d_cell`: `[N, cell_dim]`
 pub fn backward(
     x: &[f32],
-    mask: &[f32],
+    rows: &Packed,
     params: &StackParams,
     dims: &StackDims,
     saved: &StackSaved,
     d_cell: &[f32],
 ) -> StackGrads {
-    let inv = inverse_counts(mask, dims);
+    let (inv, cell_dim) = (inverse_counts(rows), dims.cell_dim());
     let widths = dims.widths();
     let offsets: Vec<usize> = widths
         .iter()
         .scan(0, |at, w| Some(std::mem::replace(at, *at + w)))
         .collect();
     let last = dims.blocks.len();
-    let mut grad = vec![0.0; dims.rows() * widths[last]];
-    add_readout_grad(&mut grad, d_cell, offsets[last], &inv, dims);
+    let mut grad = vec![0.0; rows.rows() * widths[last]];
+    add_readout_grad(&mut grad, d_cell, offsets[last], &inv, rows, cell_dim);
     let mut blocks = Vec::with_capacity(last);
     for k in (0..last).rev() {
         let fwd = Forward {
             out: &saved.outputs[k + 1],
             saved: &saved.blocks[k],
         };
-        let mut g = kernel::backward(&saved.outputs[k], mask, params.blocks[k], dims.block(k), fwd, &grad);
+        let mut g = kernel::backward(&saved.outputs[k], rows, params.blocks[k], dims.block(k), fwd, &grad);
         grad = std::mem::take(&mut g.x);
-        add_readout_grad(&mut grad, d_cell, offsets[k], &inv, dims);
+        add_readout_grad(&mut grad, d_cell, offsets[k], &inv, rows, cell_dim);
         blocks.push(g);
     }
     blocks.reverse();
@@ -203,8 +193,9 @@ fn fc0_backward(
     mut grad: Vec<f32>,
     dims: &StackDims,
 ) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
-    let (rows, f, d0) = (dims.rows(), dims.d_input, dims.d_fc0);
-    // The ReLU (and the padding, whose outputs are 0) passes a gradient only where h₀ > 0.
+    let (f, d0) = (dims.d_input, dims.d_fc0);
+    let rows = h0.len() / d0.max(1);
+    // The ReLU passes a gradient only where h₀ > 0.
     let b0 = relu_backward_sum(&mut grad, h0, d0);
     let dz = Mat::new(&grad, rows, d0);
     let w = matmul_tn(Mat::new(x, rows, f), dz);

@@ -1,11 +1,13 @@
 //! The fused featurizer ([`super::stack`]) as one Burn operation on flex: the training forward
 //! records a single autodiff node for fc0, every block and the readout, whose parameters enter
 //! as one flat tensor (Burn's concatenation hands each parameter its slice of the gradient);
-//! the evaluation forward runs on plain flex tensors. Both return `None` when the tensors live
+//! the evaluation forward runs on plain flex tensors. Both pack the real points first
+//! ([`Packed`]), so padded slots cost nothing. Both return `None` when the tensors live
 //! elsewhere, and the caller then takes the block-by-block path.
 
 use super::kernel::{BlockParams, BlockStats, Normalization};
 use super::op::{ParamTensors, flex, values};
+use super::packed::Packed;
 use super::stack::{self, StackDims, StackGrads, StackParams, StackSaved};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
@@ -15,7 +17,6 @@ use burn::backend::flex::FlexTensor;
 use burn::backend::{Autodiff, Flex};
 use burn::prelude::*;
 use burn::tensor::DType;
-use std::borrow::Cow;
 use std::sync::Arc;
 
 /// The featurizer's parameter tensors.
@@ -39,11 +40,9 @@ pub struct StackTrainOutput {
 }
 
 impl StackTensors {
-    fn dims(&self, centers: usize, points: usize) -> StackDims {
+    fn dims(&self) -> StackDims {
         let [d_input, d_fc0] = self.w0.dims();
         StackDims {
-            centers,
-            points,
             d_input,
             d_fc0,
             blocks: self.blocks.iter().map(|b| b.w2.dims()).collect(),
@@ -116,9 +115,12 @@ fn flat_grads(g: StackGrads) -> Vec<f32> {
 /// What the backward keeps of the forward.
 #[derive(Debug, Clone)]
 struct Saved {
-    /// The points and the flat parameters.
-    inputs: Arc<[FlexTensor; 2]>,
-    mask: FlexTensor,
+    /// The real points, packed `[R, F]`.
+    x: Arc<Vec<f32>>,
+    rows: Arc<Packed>,
+    /// The points' shape `[N, P, F]`.
+    shape: [usize; 3],
+    flat: FlexTensor,
     dims: StackDims,
     epsilons: Vec<f32>,
     saved: Arc<StackSaved>,
@@ -133,13 +135,14 @@ impl Backward<Flex, 2> for StackBackward {
     fn backward(self, ops: Ops<Saved, 2>, grads: &mut Gradients, _: &mut Checkpointer) {
         let d_cell = grads.consume::<Flex>(&ops.node);
         let s = ops.state;
-        let v: Vec<Cow<[f32]>> = s.inputs.iter().map(values).collect();
-        let params = split(&v[1], &s.dims, &s.epsilons);
-        let mut g = stack::backward(&v[0], &values(&s.mask), &params, &s.dims, &s.saved, &values(&d_cell));
+        let flat_values = values(&s.flat);
+        let params = split(&flat_values, &s.dims, &s.epsilons);
+        let mut g = stack::backward(&s.x, &s.rows, &params, &s.dims, &s.saved, &values(&d_cell));
         let [points, flat] = ops.parents;
         if let Some(node) = points {
-            let dx = std::mem::take(&mut g.x);
-            grads.register::<Flex>(node.id, flex(dx, s.inputs[0].layout().shape().to_vec()));
+            let [n, p, f] = s.shape;
+            let dx = s.rows.unpack(&std::mem::take(&mut g.x), f, n * p);
+            grads.register::<Flex>(node.id, flex(dx, vec![n * p * f]));
         }
         if let Some(node) = flat {
             let g = flat_grads(g);
@@ -155,7 +158,7 @@ impl Backward<Flex, 2> for StackBackward {
 /// - `points`: `[N, P, F]`, `mask`: `[N, P]` (1.0 real, 0.0 padded); output `[N, cell_dim]`
 pub fn forward_train(points: Tensor<3>, mask: Tensor<2>, params: StackTensors) -> Option<StackTrainOutput> {
     let [n, p, f] = points.dims();
-    let dims = params.dims(n, p);
+    let dims = params.dims();
     let (flat, epsilons) = params.flat();
     let ad = [points.reshape([n * p * f]), flat].map(|t| t.try_into_primitive::<Autodiff<Flex>>().ok());
     let [Some(x), Some(flat)] = ad else { return None };
@@ -164,11 +167,10 @@ pub fn forward_train(points: Tensor<3>, mask: Tensor<2>, params: StackTensors) -
     if x.dtype() != DType::F32 || flat.dtype() != DType::F32 {
         return None;
     }
+    let rows = Packed::from_mask(&values(&mask), p);
+    let x = rows.pack(&values(&x), f);
     let norms = vec![Normalization::Batch; dims.blocks.len()];
-    let (cell, saved) = {
-        let (xv, fv) = (values(&x), values(&flat));
-        stack::forward(&xv, &values(&mask), &split(&fv, &dims, &epsilons), &dims, &norms)
-    };
+    let (cell, saved) = stack::forward(&x, &rows, &split(&values(&flat), &dims, &epsilons), &dims, &norms);
     let stats = saved
         .blocks
         .iter()
@@ -185,8 +187,10 @@ pub fn forward_train(points: Tensor<3>, mask: Tensor<2>, params: StackTensors) -
     {
         OpsKind::Tracked(prep) => {
             let state = Saved {
-                inputs: Arc::new([x, flat]),
-                mask,
+                x: Arc::new(x),
+                rows: Arc::new(rows),
+                shape: [n, p, f],
+                flat,
                 dims,
                 epsilons,
                 saved: Arc::new(saved),
@@ -212,7 +216,7 @@ pub fn forward_eval(
     running: &[BlockStats],
 ) -> Option<Tensor<2>> {
     let [n, p, f] = points.dims();
-    let dims = params.dims(n, p);
+    let dims = params.dims();
     let (flat, epsilons) = params.flat();
     let x = points.reshape([n * p * f]).try_into_primitive::<Flex>().ok()?;
     let flat = flat.try_into_primitive::<Flex>().ok()?;
@@ -227,10 +231,11 @@ pub fn forward_eval(
             bn2: &s.bn2,
         })
         .collect();
+    let rows = Packed::from_mask(&values(&mask), p);
     let fv = values(&flat);
     let (cell, _) = stack::forward(
-        &values(&x),
-        &values(&mask),
+        &rows.pack(&values(&x), f),
+        &rows,
         &split(&fv, &dims, &epsilons),
         &dims,
         &norms,
