@@ -4,7 +4,7 @@
 //! operations.
 
 use super::head::{self, HeadDims, HeadParams};
-use super::op::{flex, values};
+use super::op::{flex, register_parents, values};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;
@@ -88,11 +88,12 @@ impl Backward<Flex, 5> for HeadBackward {
         let g = head::backward(&v[0], params(&v), s.dims, &s.features, &values(&dz));
         let shapes = s.inputs.iter().map(|t| t.layout().shape().to_vec());
         let values = [g.x, g.w_proj, g.b_proj, g.w_heads, g.b_heads];
-        for ((parent, grad), shape) in ops.parents.into_iter().zip(values).zip(shapes) {
-            if let Some(node) = parent {
-                grads.register::<Flex>(node.id, flex(grad, shape));
-            }
-        }
+        register_parents(
+            ops.parents.iter().map(|p| p.as_ref().map(|n| n.id)),
+            values,
+            shapes,
+            grads,
+        );
     }
 }
 

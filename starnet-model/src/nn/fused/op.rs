@@ -6,6 +6,7 @@
 
 use super::kernel::{self, BlockDims, BlockParams, BlockSaved, BlockStats, BnStats, Forward, Normalization};
 use super::packed::Packed;
+use burn::backend::autodiff::NodeId;
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;
@@ -55,6 +56,21 @@ pub(crate) fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
 
 pub(crate) fn flex(values: Vec<f32>, shape: Vec<usize>) -> FlexTensor {
     FlexTensor::from_data(TensorData::new(values, shape))
+}
+
+/// Registers the gradient of each tracked parent (`parents`: their ids, `None` where a parent
+/// is not tracked; `values` and `shapes` in the same order).
+pub(crate) fn register_parents<const N: usize>(
+    parents: impl Iterator<Item = Option<NodeId>>,
+    values: [Vec<f32>; N],
+    shapes: impl Iterator<Item = Vec<usize>>,
+    grads: &mut Gradients,
+) {
+    for ((parent, grad), shape) in parents.zip(values).zip(shapes) {
+        if let Some(id) = parent {
+            grads.register::<Flex>(id, flex(grad, shape));
+        }
+    }
 }
 
 /// The padded layout's `[N, P]` and the block's widths.
@@ -160,11 +176,12 @@ impl Backward<Flex, 7> for FusedBlockBackward {
         let shapes = s.inputs.iter().map(|t| t.layout().shape().to_vec());
         let dx = s.rows.unpack(&g.x, s.dims.d_in, v[0].len() / s.dims.d_in.max(1));
         let values = [dx, g.gamma1, g.beta1, g.w1, g.gamma2, g.beta2, g.w2];
-        for ((parent, grad), shape) in ops.parents.into_iter().zip(values).zip(shapes) {
-            if let Some(node) = parent {
-                grads.register::<Flex>(node.id, flex(grad, shape));
-            }
-        }
+        register_parents(
+            ops.parents.iter().map(|p| p.as_ref().map(|n| n.id)),
+            values,
+            shapes,
+            grads,
+        );
     }
 }
 
