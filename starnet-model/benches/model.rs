@@ -56,6 +56,8 @@ fn main() {
     // As the binary: the thread that runs the model takes part in its parallel work.
     starnet_model::backend::compute_on_this_thread();
     let dev = default_device();
+    // Same inputs every run: the real-slot count sets the work of the packed kernels.
+    dev.seed(0);
     println!("backend {}", backend_name());
     println!(
         "| preset | blocks | (C, P) | GFLOP/frame | forward | GFLOP/s | forward + backward + Adam | GFLOP/s (3x forward) |"

@@ -254,11 +254,11 @@ mod tests {
     use super::*;
     use crate::backend::default_device;
     use crate::nn::{ModelInput, StarNetConfig};
-    use burn::tensor::Distribution;
+    use crate::testing;
 
     fn input(dev: &Device) -> ModelInput {
         ModelInput {
-            points: Tensor::<4>::random([1, 6, 8, 4], Distribution::Normal(0.0, 1.0), dev),
+            points: testing::normal([1, 6, 8, 4], 1.0, &mut testing::rng(0), dev),
             mask: Tensor::ones([1, 6, 8], dev),
             center_valid: Tensor::ones([1, 6], dev),
         }

@@ -20,3 +20,5 @@ pub mod nms;
 pub mod nn;
 pub mod onnx;
 pub mod replicas;
+#[cfg(test)]
+mod testing;

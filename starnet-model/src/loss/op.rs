@@ -157,16 +157,17 @@ mod tests {
     use super::super::{HeadingLoss, LossConfig, LossTerms, starnet_loss, starnet_loss_composed};
     use super::*;
     use crate::backend::default_device;
-    use burn::tensor::Distribution;
+    use crate::testing;
 
     /// Predictions and targets of `b · c · a` anchors with `k` classes: a third foreground
     /// (one-hot class, a regression weight), some anchors ignored (no weight at all).
-    fn case(dev: &Device, k: usize, direction: bool) -> (ModelOutput, LossTargets) {
+    fn case(dev: &Device, k: usize, direction: bool, seed: u64) -> (ModelOutput, LossTargets) {
         let (b, c, a) = (2, 5, 6);
-        let normal = |shape: [usize; 4], s: f64| Tensor::<4>::random(shape, Distribution::Normal(0.0, s), dev);
-        let uniform = |shape: [usize; 3]| Tensor::<3>::random(shape, Distribution::Uniform(0.0, 1.0), dev);
+        let rng = std::cell::RefCell::new(testing::rng(seed));
+        let normal = |shape: [usize; 4], s: f32| testing::normal(shape, s, &mut rng.borrow_mut(), dev);
+        let uniform = |shape: [usize; 3]| testing::uniform(shape, 0.0, 1.0, &mut rng.borrow_mut(), dev);
         let fg = uniform([b, c, a]).lower_elem(0.33).float();
-        let class = Tensor::<3>::random([b, c, a], Distribution::Uniform(0.0, k as f64), dev).floor();
+        let class = (uniform([b, c, a]) * k as f32).floor();
         let classes = Tensor::cat(
             (0..k)
                 .map(|j| class.clone().equal_elem(j as f32).float().unsqueeze_dim::<4>(3))
@@ -226,8 +227,7 @@ mod tests {
             (2, 3, false, HeadingLoss::Wrap),
             (3, 2, true, HeadingLoss::Wrap),
         ] {
-            dev.seed(seed);
-            let (out, targets) = case(&dev, k, direction);
+            let (out, targets) = case(&dev, k, direction, seed);
             let cfg = LossConfig::new()
                 .with_heading(heading)
                 .with_gamma(if k == 3 { 1.5 } else { 2.0 });
@@ -255,8 +255,7 @@ mod tests {
     #[test]
     fn fused_terms_on_a_plain_device_equal_the_composed_loss() {
         let dev = default_device();
-        dev.seed(4);
-        let (out, targets) = case(&dev, 1, true);
+        let (out, targets) = case(&dev, 1, true, 4);
         let cfg = LossConfig::new();
         assert!(
             op_applies(&out, &targets, &cfg),
