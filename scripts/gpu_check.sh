@@ -8,8 +8,8 @@
 #   DEVICE=vulkan:1 STEPS=300 scripts/gpu_check.sh
 #
 # Needs libvulkan.so.1 and the GPU's Vulkan driver (NVIDIA's, or Mesa's radv / anv); without a GPU,
-# Mesa's lavapipe (Debian mesa-vulkan-drivers) stands in and crashes (BENCHMARKS.md). CI does not
-# build this feature: run this script after changing the GPU path. Runs go to runs/gpu-check/.
+# Mesa's lavapipe (Debian mesa-vulkan-drivers) stands in and crashes (BENCHMARKS.md); CI only
+# checks that the feature compiles. Runs go to runs/gpu-check/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 device=${DEVICE:-vulkan}
