@@ -7,9 +7,9 @@
 
 use burn::prelude::{Device, Tensor};
 use burn::tensor::TensorData;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal, Uniform};
+use rand_distr::{Distribution, Normal};
 
 /// The generator every test helper draws from, started at `seed`.
 pub(crate) fn rng(seed: u64) -> ChaCha8Rng {
@@ -19,10 +19,12 @@ pub(crate) fn rng(seed: u64) -> ChaCha8Rng {
 /// A tensor of `shape` with independent N(0, `std`²) entries.
 pub(crate) fn normal<const D: usize>(shape: [usize; D], std: f32, rng: &mut ChaCha8Rng, dev: &Device) -> Tensor<D> {
     let normal = Normal::new(0.0f32, std).expect("a finite, non-negative deviation");
-    sample(shape, &normal, rng, dev)
+    let values = (0..shape.iter().product()).map(|_| normal.sample(rng)).collect();
+    tensor(values, shape, dev)
 }
 
-/// A tensor of `shape` with independent entries uniform in `[low, high)`.
+/// A tensor of `shape` with independent entries uniform in `[low, high)`, drawn one by one
+/// with `Rng::random_range` in row-major order.
 pub(crate) fn uniform<const D: usize>(
     shape: [usize; D],
     low: f32,
@@ -30,17 +32,13 @@ pub(crate) fn uniform<const D: usize>(
     rng: &mut ChaCha8Rng,
     dev: &Device,
 ) -> Tensor<D> {
-    let uniform = Uniform::new(low, high).expect("low < high");
-    sample(shape, &uniform, rng, dev)
+    let values = (0..shape.iter().product())
+        .map(|_| rng.random_range(low..high))
+        .collect();
+    tensor(values, shape, dev)
 }
 
-fn sample<const D: usize>(
-    shape: [usize; D],
-    distribution: &impl Distribution<f32>,
-    rng: &mut ChaCha8Rng,
-    dev: &Device,
-) -> Tensor<D> {
-    let values: Vec<f32> = (0..shape.iter().product()).map(|_| distribution.sample(rng)).collect();
+fn tensor<const D: usize>(values: Vec<f32>, shape: [usize; D], dev: &Device) -> Tensor<D> {
     Tensor::from_data(TensorData::new(values, shape), dev)
 }
 

@@ -183,9 +183,10 @@ fn running(bn: &MaskedBatchNorm) -> BnStats {
 mod tests {
     use super::*;
     use crate::backend::default_device;
+    use crate::testing;
     use burn::module::Param;
     use burn::tensor::activation::relu;
-    use rand::{Rng, SeedableRng};
+    use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
     /// A block's shape and which slots are real: `real[n]` real points in center n's P slots
@@ -201,12 +202,8 @@ mod tests {
     /// Values from a fixed seed: the comparison is exact up to rounding except where a ReLU's
     /// input is within rounding of 0 (the two paths then disagree on that unit, correctly for
     /// each), so the inputs are seeded rather than drawn anew on every run.
-    fn uniform(n: usize, low: f32, high: f32, rng: &mut ChaCha8Rng) -> Vec<f32> {
-        (0..n).map(|_| rng.random_range(low..high)).collect()
-    }
-
     fn random_param(n: usize, low: f32, high: f32, rng: &mut ChaCha8Rng, dev: &Device) -> Param<Tensor<1>> {
-        Param::from_tensor(Tensor::from_floats(uniform(n, low, high, rng).as_slice(), dev))
+        Param::from_tensor(testing::uniform([n], low, high, rng, dev))
     }
 
     /// The composed block with non-trivial BN parameters, and a copy that runs fused.
@@ -214,8 +211,7 @@ mod tests {
         let mut composed = StarNetBlockConfig::new(c.d, c.h, c.o).with_fused(false).init(dev);
         let weight = |rows: usize, cols: usize, rng: &mut ChaCha8Rng| {
             let bound = (6.0 / rows as f32).sqrt();
-            let w = Tensor::<1>::from_floats(uniform(rows * cols, -bound, bound, rng).as_slice(), dev);
-            Param::from_tensor(w.reshape([rows, cols]))
+            Param::from_tensor(testing::uniform([rows, cols], -bound, bound, rng, dev))
         };
         composed.fc1.weight = weight(2 * c.d, c.h, rng);
         composed.fc2.weight = weight(c.h, c.o, rng);
@@ -238,10 +234,9 @@ mod tests {
             .flat_map(|&r| (0..c.p).map(move |s| if s < r { 1.0 } else { 0.0 }))
             .collect();
         let mask = Tensor::<1>::from_floats(mask.as_slice(), dev).reshape([n, c.p, 1]);
-        let x = Tensor::<1>::from_floats(uniform(n * c.p * c.d, -1.0, 2.0, rng).as_slice(), dev);
-        let x = relu(x.reshape([n, c.p, c.d])) * mask.clone();
-        let cot = Tensor::<1>::from_floats(uniform(n * c.p * c.o, -1.0, 1.0, rng).as_slice(), dev);
-        (x, mask, cot.reshape([n, c.p, c.o]))
+        let x = relu(testing::uniform([n, c.p, c.d], -1.0, 2.0, rng, dev)) * mask.clone();
+        let cot = testing::uniform([n, c.p, c.o], -1.0, 1.0, rng, dev);
+        (x, mask, cot)
     }
 
     fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {

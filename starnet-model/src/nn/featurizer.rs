@@ -155,6 +155,7 @@ impl Featurizer {
 mod tests {
     use super::*;
     use crate::backend::default_device;
+    use crate::testing;
     use rand::{Rng, SeedableRng};
 
     /// One center with `real` points of `p` slots; padded slots hold `junk`.
@@ -232,15 +233,13 @@ mod tests {
         let mut composed = fused.clone();
         composed.blocks.iter_mut().for_each(|b| b.set_fused(false));
         let n = real.len();
-        let x: Vec<f32> = (0..n * p * cfg.d_input).map(|_| rng.random_range(-2.0..2.0)).collect();
+        let x = testing::uniform([1, n, p, cfg.d_input], -2.0, 2.0, &mut rng, &dev);
         let m: Vec<f32> = real
             .iter()
             .flat_map(|&r| (0..p).map(move |s| f32::from(s < r)))
             .collect();
-        let x = Tensor::<1>::from_floats(x.as_slice(), &dev).reshape([1, n, p, cfg.d_input]);
         let m = Tensor::<1>::from_floats(m.as_slice(), &dev).reshape([1, n, p]);
-        let cot: Vec<f32> = (0..n * cfg.cell_dim()).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let cot = Tensor::<1>::from_floats(cot.as_slice(), &dev).reshape([1, n, cfg.cell_dim()]);
+        let cot = testing::uniform([1, n, cfg.cell_dim()], -1.0, 1.0, &mut rng, &dev);
         assert!(
             fused.forward_fused(x.clone(), m.clone()).is_some(),
             "the fused path must run"
