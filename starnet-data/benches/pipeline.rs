@@ -68,6 +68,7 @@ fn main() {
             num_points: 64,
             radius,
             metric: Default::default(),
+            reflectance: Default::default(),
         };
         let ms = median_ms(|| {
             std::hint::black_box(gather(pts, &centers, &g, &mut ChaCha8Rng::seed_from_u64(2)));

@@ -43,6 +43,7 @@ pub mod io;
 pub mod kitti;
 pub mod loader;
 mod par;
+pub mod realism;
 pub mod sampling;
 pub mod settings;
 pub mod sim;

@@ -3,7 +3,10 @@
 //! the camera.
 
 use starnet_data::kitti::{Calib, KittiDataset, ObjectClass, format_labels, observation_angle, parse_labels};
-use starnet_data::sim::{SynthConfig, read_sidecar, simulate_scene_frame, synth_frames, synth_sequences};
+use starnet_data::sim::{
+    SIMULATOR_VERSION, SynthConfig, generated_version, read_sidecar, simulate_scene_frame, synth_frames,
+    synth_sequences,
+};
 use starnet_data::wrap_angle;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -44,6 +47,13 @@ fn frames_load_rewrite_exactly_and_reproduce_from_the_seed() {
     assert_ne!(
         fa.get("training/velodyne/000000.bin"),
         files(c.path()).get("training/velodyne/000000.bin")
+    );
+
+    assert_eq!(generated_version(a.path()).unwrap(), Some(SIMULATOR_VERSION));
+    assert_eq!(
+        generated_version(&a.path().join("training")).unwrap(),
+        None,
+        "no synth.json there"
     );
 
     let ds = KittiDataset::open(a.path(), None).unwrap();

@@ -39,6 +39,7 @@ fn main() {
             num_points: 32,
             radius: 3.0,
             metric: Default::default(),
+            reflectance: Default::default(),
         },
         ..PipelineConfig::default()
     };

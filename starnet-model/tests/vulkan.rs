@@ -27,6 +27,7 @@ fn frame() -> (starnet_data::sampling::PreparedFrame, AnchorTargets) {
             num_points: 16,
             radius: 3.0,
             metric: Default::default(),
+            reflectance: Default::default(),
         },
         ..Default::default()
     };

@@ -16,6 +16,7 @@ pub mod eval;
 pub mod export;
 pub mod inspect;
 pub mod prepare;
+pub mod realism;
 pub mod render;
 pub mod stream;
 pub mod synth;

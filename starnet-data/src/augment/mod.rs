@@ -1,15 +1,18 @@
 //! Training-time augmentation, in the authors' order (lingvo `params/kitti.py`, DESIGN §5):
 //! database paste, per-box rotation, flip y, global rotation, global scaling, global z shift,
-//! and — after center selection, so it only thins the gathered neighbourhoods — a one-ring
-//! dropout. Every step first draws its parameters from the RNG it is given, then applies them
-//! to points and boxes together; [`augment`] returns what it drew.
+//! then the reflectance step (ours, off by default: [`ReflectanceAugment`]), and — after center
+//! selection, so it only thins the gathered neighbourhoods — a one-ring dropout. Every step
+//! first draws its parameters from the RNG it is given, then applies them to points and boxes
+//! together; [`augment`] returns what it drew.
 
 mod gtdb;
 mod paste;
+mod reflectance;
 mod transforms;
 
 pub use gtdb::{GTDB_CAPTURE_MARGIN, GTDB_VERSION, GtDatabase, GtEntry};
 pub use paste::{DbPasteConfig, paste_from_database};
+pub use reflectance::{ReflectanceAugment, ReflectanceDraw, augment_reflectance};
 pub use transforms::{Scene, flip_y, rotate_box, rotate_boxes, rotate_z, scale, shift_z};
 
 /// Grid cell (m) for finding the points near a box: a car's bird's-eye circle (r ≈ 2.2 m)
@@ -78,6 +81,8 @@ pub struct AugmentConfig {
     pub ring_dropout: bool,
     /// Width in radians of the dropped band of inclination (0.03, about one laser ring).
     pub ring_dropout_width: f32,
+    /// Sensor-scale augmentation of the reflectance channel (not in the paper; off).
+    pub reflectance: ReflectanceAugment,
 }
 
 impl Default for AugmentConfig {
@@ -101,6 +106,7 @@ impl Default for AugmentConfig {
             z_shift_sigma: 0.35,
             ring_dropout: true,
             ring_dropout_width: 0.03,
+            reflectance: ReflectanceAugment::default(),
         }
     }
 }
@@ -129,7 +135,7 @@ impl AugmentConfig {
         ordered_range("scaling_range", self.scaling_range)?;
         non_negative("z_shift_sigma", self.z_shift_sigma as f64)?;
         within("ring_dropout_width", self.ring_dropout_width as f64, 0.0, PI as f64)?;
-        Ok(())
+        self.reflectance.validate().map_err(|e| e.within("reflectance"))
     }
 
     /// Every step off: the identity.
@@ -171,6 +177,8 @@ pub struct AugmentDraw {
     pub scale: f32,
     /// Global z shift.
     pub z_shift: f32,
+    /// The reflectance step's draw, when it ran.
+    pub reflectance: Option<ReflectanceDraw>,
 }
 
 impl AugmentDraw {
@@ -230,6 +238,11 @@ pub fn augment(scene: &mut Scene, cfg: &AugmentConfig, db: Option<&GtDatabase>, 
         0.0
     };
     shift_z(scene, dz);
+    let reflectance = cfg.reflectance.enabled.then(|| {
+        let draw = cfg.reflectance.draw(rng);
+        augment_reflectance(&mut scene.points, draw, cfg.reflectance.noise, rng);
+        draw
+    });
     AugmentDraw {
         pasted,
         box_rotations,
@@ -237,6 +250,7 @@ pub fn augment(scene: &mut Scene, cfg: &AugmentConfig, db: Option<&GtDatabase>, 
         rotation,
         scale: s,
         z_shift: dz,
+        reflectance,
     }
 }
 

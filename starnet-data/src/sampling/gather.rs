@@ -13,6 +13,28 @@ use serde::{Deserialize, Serialize};
 /// Per-point input features F: `(x − cx, y − cy, z − cz, reflectance)`.
 pub const NUM_FEATURES: usize = 4;
 
+/// What the fourth feature carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReflectanceInput {
+    /// The point's reflectance as the sensor reported it (the paper's).
+    #[default]
+    Measured,
+    /// Always 0: a geometry-only model, for sensors whose reflectance scale differs from the
+    /// training data's (the feature count, and so the weights' shapes, stay those of the paper).
+    Ignored,
+}
+
+impl ReflectanceInput {
+    /// The feature for a point with reflectance `r`.
+    pub fn feature(self, r: f32) -> f32 {
+        match self {
+            Self::Measured => r,
+            Self::Ignored => 0.0,
+        }
+    }
+}
+
 /// How the distance from a center is measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -55,6 +77,9 @@ pub struct GatherConfig {
     /// The distance R bounds (`ball`, the paper's, or `cylinder`).
     #[serde(default)]
     pub metric: GatherMetric,
+    /// What the fourth feature carries (`measured`, the paper's, or `ignored`).
+    #[serde(default)]
+    pub reflectance: ReflectanceInput,
 }
 
 /// The gathered neighbourhoods of C centers, ready to batch.
@@ -221,7 +246,7 @@ pub fn gather_with_grid(
                 p[0] - center[0],
                 p[1] - center[1],
                 p[2] - center[2],
-                p[3],
+                cfg.reflectance.feature(p[3]),
             ]);
         }
     }
@@ -323,6 +348,7 @@ mod tests {
             num_points: 32,
             radius: 1.0,
             metric: GatherMetric::Ball,
+            reflectance: ReflectanceInput::Measured,
         };
         let n = gather(&pts, &centers, &cfg, &mut rng);
         let grid = SpatialGrid::new(&pts, 1.0);
@@ -349,6 +375,39 @@ mod tests {
     }
 
     #[test]
+    fn ignored_reflectance_gathers_the_same_points_with_a_zero_fourth_feature() {
+        let pts: Vec<Point> = cloud(5000).into_iter().map(|p| [p[0], p[1], p[2], 0.37]).collect();
+        let pool: Vec<usize> = (0..pts.len()).collect();
+        let centers = sample_centers(
+            &pts,
+            &pool,
+            16,
+            Sampler::Fps,
+            &[],
+            CenterZ::Point,
+            &mut ChaCha8Rng::seed_from_u64(3),
+        );
+        let measured = GatherConfig {
+            num_points: 16,
+            radius: 1.0,
+            metric: GatherMetric::Ball,
+            reflectance: ReflectanceInput::Measured,
+        };
+        let ignored = GatherConfig {
+            reflectance: ReflectanceInput::Ignored,
+            ..measured
+        };
+        let a = gather(&pts, &centers, &measured, &mut ChaCha8Rng::seed_from_u64(4));
+        let b = gather(&pts, &centers, &ignored, &mut ChaCha8Rng::seed_from_u64(4));
+        assert_eq!((&a.mask, &a.indices), (&b.mask, &b.indices));
+        for (fa, fb) in a.features.chunks(4).zip(b.features.chunks(4)) {
+            assert_eq!(fa[..3], fb[..3]);
+            assert_eq!(fb[3], 0.0);
+        }
+        assert!(a.features.chunks(4).any(|f| f[3] == 0.37));
+    }
+
+    #[test]
     fn sampling_is_uniform_among_the_candidates() {
         // 10 points within R, 5 slots: each point should be picked about half the time.
         let pts: Vec<Point> = (0..10).map(|i| [0.05 * i as f32, 0.0, 0.0, 0.0]).collect();
@@ -361,6 +420,7 @@ mod tests {
             num_points: 5,
             radius: 1.0,
             metric: GatherMetric::Ball,
+            reflectance: ReflectanceInput::Measured,
         };
         let mut hits = [0u32; 10];
         let mut rng = ChaCha8Rng::seed_from_u64(3);

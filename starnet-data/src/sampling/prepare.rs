@@ -52,6 +52,7 @@ impl Default for PipelineConfig {
                 num_points: 64,
                 radius: 3.75,
                 metric: super::GatherMetric::Ball,
+                reflectance: super::ReflectanceInput::Measured,
             },
         }
     }

@@ -5,14 +5,14 @@
 //!
 //! Sizes follow the KITTI statistics of `kitti-format.md` §2 (mean ± sd per class).
 
-use super::Shape;
+use super::{Shape, Surface};
 use crate::kitti::ObjectClass;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
 /// A part: a solid in the object's own frame (origin on the ground under the footprint
-/// centre, x along the heading) and its reflectance.
-pub type Part = (Shape, f32);
+/// centre, x along the heading) and its surface.
+pub type Part = (Shape, Surface);
 
 /// Mean and standard deviation of `[length, width, height]` per class (KITTI tracking labels
 /// where measured, else 10 % of the Frustum-PointNet mean sizes).
@@ -40,68 +40,101 @@ pub fn sample_size(class: ObjectClass, rng: &mut impl Rng) -> [f32; 3] {
 }
 
 /// An axis-aligned cuboid part from its local bounds.
-fn cuboid(lo: [f32; 3], hi: [f32; 3], reflectance: f32) -> Part {
+fn cuboid(lo: [f32; 3], hi: [f32; 3], surface: Surface) -> Part {
     let c = std::array::from_fn(|i| 0.5 * (lo[i] + hi[i]));
     let half = std::array::from_fn(|i| 0.5 * (hi[i] - lo[i]));
-    (Shape::Cuboid { c, half, heading: 0.0 }, reflectance)
+    (Shape::Cuboid { c, half, heading: 0.0 }, surface)
 }
 
-fn head(x: f32, top: f32, reflectance: f32) -> Part {
+fn head(x: f32, top: f32) -> Part {
     (
         Shape::Ellipsoid {
             c: [x, 0.0, top - 0.12],
             radii: [0.1, 0.085, 0.12],
             heading: 0.0,
         },
-        reflectance,
+        Surface::matte(0.25),
     )
 }
 
-/// Wheels, body, cabin and plates of a car or van; `cabin` is the cabin's share of the length.
+/// Wheels, body, cabin, lamps and plates of a car or van; `cabin` is the cabin's share of the
+/// length. Paint is glossy (it returns strongly only where it faces the sensor); most rays pass
+/// through the windows.
 fn car_like(l: f32, w: f32, h: f32, cabin: f32, paint: f32) -> Vec<Part> {
+    let (tyre, glass, paint) = (Surface::matte(0.08), Surface::glass(0.06), Surface::gloss(paint));
     let (hl, hw) = (0.5 * l, 0.5 * w);
     let belt = (0.55 * h).max(0.6);
     let mut parts = Vec::new();
     for sx in [-1.0, 1.0] {
         for sy in [-1.0, 1.0] {
             let (x, y) = (sx * (hl - 0.75).max(0.35), sy * (hw - 0.11));
-            parts.push(cuboid([x - 0.32, y - 0.1, 0.0], [x + 0.32, y + 0.1, 0.64], 0.08));
+            parts.push(cuboid([x - 0.32, y - 0.1, 0.0], [x + 0.32, y + 0.1, 0.64], tyre));
         }
     }
     parts.push(cuboid([-hl, -hw, 0.22], [hl, hw, belt], paint));
     let (c0, c1) = (-hl + 0.12 * l, -hl + (0.12 + cabin) * l);
-    parts.push(cuboid([c0, -0.43 * w, belt], [c1, 0.43 * w, h], 0.06)); // glass: weak returns
-    parts.push(cuboid([c0 + 0.1, -0.44 * w, h - 0.06], [c1 - 0.1, 0.44 * w, h], paint)); // roof
-    for sx in [-1.0, 1.0] {
-        parts.push(cuboid([sx * hl - 0.01, -0.26, 0.35], [sx * hl + 0.0, 0.26, 0.47], 0.9)); // plates
+    // The windscreen and the rear window slope (runs of 0.7 m and 0.35 m from belt to roof), as
+    // three steps each: no car has a vertical glass face over its hood.
+    let (front_run, rear_run, steps) = (0.7f32.min(0.3 * (c1 - c0)), 0.35f32.min(0.2 * (c1 - c0)), 3);
+    let dz = (h - belt) / steps as f32;
+    for k in 0..steps {
+        let inset = (k as f32 + 0.5) / steps as f32;
+        let z0 = belt + k as f32 * dz;
+        parts.push(cuboid(
+            [c0 + rear_run * inset, -0.43 * w, z0],
+            [c1 - front_run * inset, 0.43 * w, z0 + dz],
+            glass,
+        ));
+    }
+    parts.push(cuboid(
+        [c0 + rear_run, -0.44 * w, h - 0.06],
+        [c1 - front_run, 0.44 * w, h],
+        paint,
+    )); // roof
+    // Plates and the lamps beside them are retro-reflective: the brightest returns of a car.
+    let lamp = (belt - 0.18).max(0.3);
+    for sx in [-1.0f32, 1.0] {
+        let face = [sx * hl - 0.01, sx * hl];
+        let (x0, x1) = (face[0].min(face[1]), face[0].max(face[1]));
+        parts.push(cuboid([x0, -0.26, 0.35], [x1, 0.26, 0.47], Surface::retro(0.9)));
+        for sy in [-1.0f32, 1.0] {
+            let y = sy * (hw - 0.2);
+            parts.push(cuboid(
+                [x0, y - 0.15, lamp],
+                [x1, y + 0.15, lamp + 0.18],
+                Surface::retro(0.7),
+            ));
+        }
     }
     parts
 }
 
 fn truck(l: f32, w: f32, h: f32, paint: f32) -> Vec<Part> {
     let (hl, hw) = (0.5 * l, 0.5 * w);
+    let (tyre, cargo) = (Surface::matte(0.08), Surface::matte(0.35 + 0.5 * paint));
     let mut parts = Vec::new();
     for x in [-hl + 1.0, -hl + 2.3, hl - 1.2] {
         for sy in [-1.0, 1.0] {
             parts.push(cuboid(
                 [x - 0.5, sy * hw - 0.25 * sy - 0.15, 0.0],
                 [x + 0.5, sy * hw - 0.25 * sy + 0.15, 1.0],
-                0.08,
+                tyre,
             ));
         }
     }
     let cab = 2.2f32.min(0.3 * l);
-    parts.push(cuboid([hl - cab, -hw, 0.5], [hl, hw, 0.8 * h], paint));
+    parts.push(cuboid([hl - cab, -hw, 0.5], [hl, hw, 0.8 * h], Surface::gloss(paint)));
     parts.push(cuboid(
         [hl - cab + 0.3, -0.45 * w, 0.8 * h],
         [hl - 0.3, 0.45 * w, 0.8 * h + 0.05],
-        0.06,
+        Surface::glass(0.06),
     ));
-    parts.push(cuboid([-hl, -hw, 0.9], [hl - cab - 0.3, hw, h], 0.35 + 0.5 * paint));
+    parts.push(cuboid([-hl, -hw, 0.9], [hl - cab - 0.3, hw, h], cargo));
     parts
 }
 
-fn pedestrian(l: f32, w: f32, h: f32, clothes: f32, stride: f32) -> Vec<Part> {
+fn pedestrian(l: f32, w: f32, h: f32, albedo: f32, stride: f32) -> Vec<Part> {
+    let (clothes, shoes) = (Surface::matte(albedo), Surface::matte(0.5 * albedo));
     let (hl, hw) = (0.5 * l, 0.5 * w);
     let hip = 0.47 * h;
     let leg_x = (hl - 0.08) * stride;
@@ -109,7 +142,7 @@ fn pedestrian(l: f32, w: f32, h: f32, clothes: f32, stride: f32) -> Vec<Part> {
         cuboid([leg_x - 0.07, 0.03, 0.0], [leg_x + 0.07, 0.16, hip], clothes),
         cuboid([-leg_x - 0.07, -0.16, 0.0], [-leg_x + 0.07, -0.03, hip], clothes),
         cuboid([-0.11, -0.18, hip], [0.11, 0.18, 0.83 * h], clothes),
-        head(0.0, h, 0.25),
+        head(0.0, h),
     ];
     // Arms swing opposite to the legs and set the width.
     let arm_x = 0.6 * leg_x;
@@ -124,48 +157,51 @@ fn pedestrian(l: f32, w: f32, h: f32, clothes: f32, stride: f32) -> Vec<Part> {
         clothes,
     ));
     // The longer stride leg defines the length when it is longer than the torso.
-    parts.push(cuboid([-hl, -0.05, 0.0], [-hl + 0.1, 0.05, 0.08], clothes * 0.5)); // heel
-    parts.push(cuboid([hl - 0.1, -0.05, 0.0], [hl, 0.05, 0.08], clothes * 0.5)); // toe
+    parts.push(cuboid([-hl, -0.05, 0.0], [-hl + 0.1, 0.05, 0.08], shoes)); // heel
+    parts.push(cuboid([hl - 0.1, -0.05, 0.0], [hl, 0.05, 0.08], shoes)); // toe
     parts
 }
 
-fn person_sitting(l: f32, w: f32, h: f32, clothes: f32) -> Vec<Part> {
+fn person_sitting(l: f32, w: f32, h: f32, albedo: f32) -> Vec<Part> {
     let (hl, hw) = (0.5 * l, 0.5 * w);
+    let clothes = Surface::matte(albedo);
     vec![
-        cuboid([-hl, -0.5 * hw, 0.0], [-hl + 0.35, 0.5 * hw, 0.45], 0.2), // seat
+        cuboid([-hl, -0.5 * hw, 0.0], [-hl + 0.35, 0.5 * hw, 0.45], Surface::matte(0.2)), // seat
         cuboid([-hl + 0.05, -0.2, 0.45], [-hl + 0.32, 0.2, h - 0.22], clothes),
         cuboid([-hl + 0.3, -0.18, 0.38], [hl - 0.08, 0.18, 0.52], clothes), // thighs
         cuboid([hl - 0.16, -0.18, 0.0], [hl, 0.18, 0.45], clothes),         // shins
         cuboid([-hl + 0.1, -hw, 0.5], [-hl + 0.25, hw, 0.62], clothes),     // arms on the rests
-        head(-hl + 0.18, h, 0.25),
+        head(-hl + 0.18, h),
     ]
 }
 
 fn cyclist(l: f32, w: f32, h: f32, clothes: f32, paint: f32) -> Vec<Part> {
     let (hl, hw) = (0.5 * l, 0.5 * w);
+    let (clothes, paint, tyre) = (Surface::matte(clothes), Surface::gloss(paint), Surface::matte(0.1));
     let r = 0.34f32.min(0.25 * l);
     let body = 0.2f32.min(hw); // the rider's half-width, never wider than the handlebar
     vec![
-        cuboid([-hl, -0.025, 0.0], [-hl + 2.0 * r, 0.025, 2.0 * r], 0.1), // rear wheel
-        cuboid([hl - 2.0 * r, -0.025, 0.0], [hl, 0.025, 2.0 * r], 0.1),   // front wheel
+        cuboid([-hl, -0.025, 0.0], [-hl + 2.0 * r, 0.025, 2.0 * r], tyre), // rear wheel
+        cuboid([hl - 2.0 * r, -0.025, 0.0], [hl, 0.025, 2.0 * r], tyre),   // front wheel
         cuboid([-hl + r, -0.03, r + 0.1], [hl - r, 0.03, r + 0.25], paint), // frame
-        cuboid([hl - r - 0.1, -hw, 1.0], [hl - r, hw, 1.05], paint),      // handlebar sets the width
-        cuboid([-0.25, -body, 0.75], [0.2, body, 0.8 * h], clothes),      // torso, leaning
+        cuboid([hl - r - 0.1, -hw, 1.0], [hl - r, hw, 1.05], paint),       // handlebar sets the width
+        cuboid([-0.25, -body, 0.75], [0.2, body, 0.8 * h], clothes),       // torso, leaning
         cuboid([0.2, -hw + 0.05, 0.95], [hl - r - 0.1, -hw + 0.15, 1.1], clothes), // arms to the bar
         cuboid([0.2, hw - 0.15, 0.95], [hl - r - 0.1, hw - 0.05, 1.1], clothes),
         cuboid([-0.15, 0.04, 0.3], [0.15, body, 0.85], clothes), // legs
         cuboid([-0.05, -body, 0.25], [0.25, -0.04, 0.85], clothes),
-        head(0.15, h, 0.25),
+        head(0.15, h),
     ]
 }
 
 fn misc(l: f32, w: f32, h: f32, paint: f32) -> Vec<Part> {
     // A trailer or container: a box on a low frame.
     let (hl, hw) = (0.5 * l, 0.5 * w);
+    let frame = Surface::matte(0.1);
     vec![
-        cuboid([-hl + 0.2, -hw + 0.1, 0.0], [-hl + 0.6, hw - 0.1, 0.3], 0.1),
-        cuboid([hl - 0.6, -hw + 0.1, 0.0], [hl - 0.2, hw - 0.1, 0.3], 0.1),
-        cuboid([-hl, -hw, 0.3], [hl, hw, h], paint),
+        cuboid([-hl + 0.2, -hw + 0.1, 0.0], [-hl + 0.6, hw - 0.1, 0.3], frame),
+        cuboid([hl - 0.6, -hw + 0.1, 0.0], [hl - 0.2, hw - 0.1, 0.3], frame),
+        cuboid([-hl, -hw, 0.3], [hl, hw, h], Surface::matte(paint)),
     ]
 }
 

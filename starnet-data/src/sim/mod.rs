@@ -8,6 +8,7 @@
 //! truncation, the 2D box and alpha from projecting through a real KITTI calibration.
 
 mod actors;
+mod intensity;
 mod labels;
 mod placement;
 mod raycast;
@@ -21,6 +22,7 @@ mod synth;
 mod world;
 
 pub use actors::{Part, build_parts, sample_size, size_stats, tight_box};
+pub use intensity::{Finish, IntensityModel, Surface};
 pub use labels::{DONT_CARE_DISTANCE, INVISIBLE_BLOCKED, camera_label, label_frame, occlusion_level};
 pub use raycast::{Primitive, Scan, Terrain, scan};
 pub use scenery::Scenery;
@@ -30,7 +32,7 @@ pub use sidecar::{SimObject, parse_sidecar, read_sidecar, write_sidecar};
 pub use stats::{DatasetStats, StatRow, dataset_stats};
 pub use street::{Ground, GroundView, Street};
 pub use synth::{
-    SynthConfig, SynthFrame, pose_line, simulate_frame, simulate_scene_frame, sub_seed, synth_frames, synth_sequences,
-    write_frame,
+    SIMULATOR_VERSION, SynthConfig, SynthFrame, generated_version, pose_line, simulate_frame, simulate_scene_frame,
+    sub_seed, synth_frames, synth_sequences, write_frame,
 };
 pub use world::{Actor, Moment, World};

@@ -3,19 +3,19 @@
 //! Occlusion is measured, not guessed: for each labelled object the scan counts the rays whose
 //! line of sight crosses it and the rays whose first return is on it.
 
-use super::{LidarConfig, Ray, Shape};
+use super::{Finish, IntensityModel, LidarConfig, Ray, Shape, Surface};
 use crate::Point;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
 use std::f32::consts::TAU;
 
-/// A solid of the scene with its surface reflectance and, for labelled objects, its owner.
+/// A solid of the scene with its surface and, for labelled objects, its owner.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Primitive {
     /// The solid, in the sensor frame.
     pub shape: Shape,
-    /// Diffuse reflectance in [0, 1] seen head-on.
-    pub reflectance: f32,
+    /// How it returns the laser.
+    pub surface: Surface,
     /// Index of the labelled object it belongs to; `None` for scenery.
     pub owner: Option<u32>,
 }
@@ -24,8 +24,8 @@ pub struct Primitive {
 pub trait Terrain {
     /// Ground height at `(x, y)`.
     fn height(&self, x: f32, y: f32) -> f32;
-    /// Ground reflectance at `(x, y)`.
-    fn reflectance(&self, x: f32, y: f32) -> f32;
+    /// Ground surface at `(x, y)`.
+    fn surface(&self, x: f32, y: f32) -> Surface;
 }
 
 /// One turn of the sensor.
@@ -38,7 +38,8 @@ pub struct Scan {
     pub owners: Vec<Option<u32>>,
     /// Per object, the rays whose line of sight (within range) crosses it.
     pub rays_toward: Vec<u32>,
-    /// Per object, the rays whose first return lies on it (before dropout).
+    /// Per object, the rays whose first return lies on it (before dropout), or that passed
+    /// through its windows with nothing nearer: the rays that see it.
     pub rays_hit: Vec<u32>,
 }
 
@@ -81,18 +82,113 @@ fn terrain_hit(ray: &Ray, terrain: &impl Terrain, max_range: f32) -> Option<f32>
     (t > 0.0 && t <= max_range).then_some(t)
 }
 
-/// Reflectance as the sensor reports it: Lambertian falloff with incidence, noise, quantised
-/// to 0.01 like KITTI's values.
-fn observed_reflectance(base: f32, d: [f32; 3], n: [f32; 3], rng: &mut impl Rng) -> f32 {
-    let cos = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]).abs();
-    let r = base * (0.55 + 0.45 * cos) + rng.random_range(-0.04..0.04);
-    (r.clamp(0.0, 0.99) * 100.0).round() / 100.0
-}
-
 /// Extra chance of losing a return on a dark or transparent surface (black paint, tyres, glass):
 /// real HDL-64 scans are sparse there, and KITTI's points per car show it.
-fn dark_surface_dropout(base: f32) -> f32 {
-    0.6 * ((0.25 - base) / 0.25).clamp(0.0, 1.0)
+fn dark_surface_dropout(surface: Surface) -> f32 {
+    0.6 * ((0.25 - surface.albedo) / 0.25).clamp(0.0, 1.0)
+}
+
+/// The nearest return of a ray: distance, normal, surface and owner.
+#[derive(Debug, Clone, Copy)]
+struct Hit {
+    t: f32,
+    n: [f32; 3],
+    surface: Surface,
+    owner: Option<u32>,
+}
+
+/// What one ray met besides its return, in buffers reused from ray to ray: the objects whose
+/// solids it crossed, and those it saw through their windows (with where).
+#[derive(Debug, Default)]
+struct Sightings {
+    crossed: Vec<u32>,
+    seen_through: Vec<(u32, f32)>,
+}
+
+/// The nearest solid among `candidates` that returns `ray`.
+fn nearest_solid(
+    ray: &Ray,
+    candidates: &[u32],
+    prims: &[Primitive],
+    lidar: &LidarConfig,
+    sight: &mut Sightings,
+    rng: &mut impl Rng,
+) -> Option<Hit> {
+    sight.crossed.clear();
+    sight.seen_through.clear();
+    let mut best: Option<Hit> = None;
+    for &i in candidates {
+        let p = &prims[i as usize];
+        let Some((t, n)) = p.shape.intersect(ray) else { continue };
+        if t > lidar.max_range {
+            continue;
+        }
+        if let Some(o) = p.owner
+            && !sight.crossed.contains(&o)
+        {
+            sight.crossed.push(o);
+        }
+        let Some(t) = surface_return(p, ray, t, &lidar.intensity, &mut sight.seen_through, rng) else {
+            continue;
+        };
+        if best.is_none_or(|b| t < b.t) {
+            best = Some(Hit {
+                t,
+                n,
+                surface: p.surface,
+                owner: p.owner,
+            });
+        }
+    }
+    best
+}
+
+/// Where a ray that reaches solid `p` at `t` comes back from it, if it does: window glass lets
+/// most rays through (noting the owner as seen), foliage returns from a random depth inside or
+/// lets the ray through, every other surface returns where it is met.
+fn surface_return(
+    p: &Primitive,
+    ray: &Ray,
+    t: f32,
+    model: &IntensityModel,
+    seen_through: &mut Vec<(u32, f32)>,
+    rng: &mut impl Rng,
+) -> Option<f32> {
+    match p.surface.finish {
+        Finish::Glass if rng.random::<f32>() < model.glass_transmission => {
+            seen_through.extend(p.owner.map(|o| (o, t)));
+            None
+        }
+        Finish::Foliage => {
+            let inside = t + model.foliage_penetration(rng);
+            p.shape.contains(ray.at(inside)).then_some(inside)
+        }
+        _ => Some(t),
+    }
+}
+
+impl Scan {
+    /// Counts a ray toward every object it crossed (those behind its return are occluded),
+    /// and as a hit on the object it returned from and on those it saw through their windows
+    /// with nothing nearer.
+    fn count_sightings(&mut self, sight: &Sightings, first: Option<Hit>) {
+        for &o in &sight.crossed {
+            self.rays_toward[o as usize] += 1;
+        }
+        let (t_first, owner) = first.map_or((f32::INFINITY, None), |h| (h.t, h.owner));
+        let mut seen: Vec<u32> = sight
+            .seen_through
+            .iter()
+            .filter(|(_, t)| *t < t_first)
+            .map(|(o, _)| *o)
+            .chain(owner)
+            .collect();
+        seen.sort_unstable();
+        seen.dedup();
+        for o in seen {
+            self.rays_hit[o as usize] += 1;
+        }
+    }
 }
 
 /// Scans the scene from the sensor at the origin.
@@ -106,59 +202,39 @@ pub fn scan(
     let bins = bin_solids(prims);
     let noise = Normal::new(0.0, lidar.range_noise.max(1e-9)).expect("finite sigma");
     let clip = 2.5 * lidar.range_noise;
+    let gains = lidar.intensity.draw_gains(lidar.elevations_deg.len(), rng);
     let mut out = Scan {
         rays_toward: vec![0; num_objects],
         rays_hit: vec![0; num_objects],
         ..Default::default()
     };
-    let mut crossed: Vec<u32> = Vec::with_capacity(8);
-    for beam in 0..lidar.elevations_deg.len() {
+    let mut sight = Sightings::default();
+    for (beam, &gain) in gains.iter().enumerate() {
         for step in 0..lidar.azimuth_steps {
             let ray = Ray {
                 o: [0.0; 3],
                 d: lidar.direction(beam, step),
             };
             let bin = ((lidar.azimuth(step) / TAU * BINS as f32) as usize).min(BINS - 1);
-            let mut best: Option<(f32, [f32; 3], f32, Option<u32>)> = None;
-            crossed.clear();
-            for &i in &bins[bin] {
-                let p = &prims[i as usize];
-                if let Some((t, n)) = p.shape.intersect(&ray) {
-                    if t > lidar.max_range {
-                        continue;
-                    }
-                    if let Some(o) = p.owner
-                        && !crossed.contains(&o)
-                    {
-                        crossed.push(o);
-                    }
-                    if best.is_none_or(|b| t < b.0) {
-                        best = Some((t, n, p.reflectance, p.owner));
-                    }
-                }
-            }
+            let mut first = nearest_solid(&ray, &bins[bin], prims, lidar, &mut sight, rng);
             if let Some(t) = terrain_hit(&ray, terrain, lidar.max_range)
-                && best.is_none_or(|b| t < b.0)
+                && first.is_none_or(|h| t < h.t)
             {
                 let p = ray.at(t);
-                best = Some((t, [0.0, 0.0, 1.0], terrain.reflectance(p[0], p[1]), None));
+                let (n, surface, owner) = ([0.0, 0.0, 1.0], terrain.surface(p[0], p[1]), None);
+                first = Some(Hit { t, n, surface, owner });
             }
-            // Objects behind the first return are still "toward": they count as occluded.
-            for &o in &crossed {
-                out.rays_toward[o as usize] += 1;
-            }
-            let Some((t, n, base, owner)) = best else { continue };
-            if let Some(o) = owner {
-                out.rays_hit[o as usize] += 1;
-            }
-            if rng.random::<f32>() < lidar.dropout + dark_surface_dropout(base) {
+            out.count_sightings(&sight, first);
+            let Some(hit) = first else { continue };
+            if rng.random::<f32>() < lidar.dropout + dark_surface_dropout(hit.surface) {
                 continue;
             }
-            let t = t + noise.sample(rng).clamp(-clip, clip);
+            let t = hit.t + noise.sample(rng).clamp(-clip, clip);
             let p = ray.at(t);
-            out.points
-                .push([p[0], p[1], p[2], observed_reflectance(base, ray.d, n, rng)]);
-            out.owners.push(owner);
+            let cos = (ray.d[0] * hit.n[0] + ray.d[1] * hit.n[1] + ray.d[2] * hit.n[2]).abs();
+            let reflectance = lidar.intensity.observe(hit.surface, cos, t, gain, rng);
+            out.points.push([p[0], p[1], p[2], reflectance]);
+            out.owners.push(hit.owner);
         }
     }
     out
@@ -174,8 +250,8 @@ mod tests {
         fn height(&self, _: f32, _: f32) -> f32 {
             -1.73
         }
-        fn reflectance(&self, _: f32, _: f32) -> f32 {
-            0.3
+        fn surface(&self, _: f32, _: f32) -> Surface {
+            Surface::matte(0.3)
         }
     }
 
@@ -208,7 +284,7 @@ mod tests {
                 half: [0.1, 3.0, 3.0],
                 heading: 0.0,
             },
-            reflectance: 0.3,
+            surface: Surface::matte(0.3),
             owner: None,
         };
         let car = Primitive {
@@ -217,7 +293,7 @@ mod tests {
                 half: [2.0, 0.8, 0.7],
                 heading: 0.0,
             },
-            reflectance: 0.3,
+            surface: Surface::matte(0.3),
             owner: Some(0),
         };
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);

@@ -1,26 +1,31 @@
 //! The unlabelled world along a street: sidewalk slabs (their edges are the kerbs), building
-//! façades with gaps, poles and signs, trees and bushes. Everything in the world frame.
+//! façades with gaps, poles and signs, porous trees, bushes and hedges, fences and low walls
+//! along the property line, street furniture (bins, cabinets, bollards, benches), grass mounds
+//! and car-sized clutter (skips, sheds, stacked goods) off the road. Everything in the world
+//! frame. Real streets are cluttered (BENCHMARKS.md, "Realism": 19 % of real background
+//! neighbourhoods are volumetric against 5 % here before the clutter), and the clutter is
+//! what a detector must learn not to call a car.
 
 use super::street::Ground;
-use super::{Part, Shape};
+use super::{Part, Shape, Surface};
 use crate::Box3d;
 use rand::Rng;
 
-/// Scenery solids with their reflectance, and the footprints objects must not overlap.
+/// Scenery solids with their surfaces, and the footprints objects must not overlap.
 #[derive(Debug, Clone, Default)]
 pub struct Scenery {
-    /// Solids and reflectances, world frame.
+    /// Solids and surfaces, world frame.
     pub solids: Vec<Part>,
     /// Footprints of buildings, poles and trunks (for placing objects).
     pub obstacles: Vec<Box3d>,
 }
 
 impl Scenery {
-    fn add(&mut self, shape: Shape, reflectance: f32) {
-        self.solids.push((shape, reflectance));
+    fn add(&mut self, shape: Shape, surface: Surface) {
+        self.solids.push((shape, surface));
     }
 
-    fn add_obstacle(&mut self, shape: Shape, reflectance: f32) {
+    fn add_obstacle(&mut self, shape: Shape, surface: Surface) {
         let ([x, y], r) = shape.bounding_circle();
         let (z0, z1) = shape.z_range();
         let (dx, dy, heading) = match shape {
@@ -29,7 +34,7 @@ impl Scenery {
         };
         self.obstacles
             .push(Box3d::new(x, y, 0.5 * (z0 + z1), dx, dy, z1 - z0, heading));
-        self.add(shape, reflectance);
+        self.add(shape, surface);
     }
 }
 
@@ -48,6 +53,9 @@ pub fn build_scenery(ground: &Ground, x0: f32, x1: f32, rng: &mut impl Rng) -> S
         if rng.random::<f32>() < 0.6 {
             trees(&mut out, ground, side, x0, x1, rng);
         }
+        boundaries(&mut out, ground, side, edge, (x0, x1), rng);
+        furniture(&mut out, ground, side, (x0, x1), rng);
+        off_road(&mut out, ground, side, edge, (x0, x1), rng);
     }
     out
 }
@@ -68,7 +76,7 @@ fn sidewalks(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32) {
                     half: [5.0, 0.5 * s.sidewalk, 0.5 * (s.kerb + 0.2)],
                     heading: 0.0,
                 },
-                0.36,
+                Surface::matte(0.36),
             );
         }
         x += 10.0;
@@ -93,7 +101,7 @@ fn buildings(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, x0: f32, 
                     half: [0.5 * len, 0.5 * depth, 0.5 * h],
                     heading,
                 },
-                rng.random_range(0.2..0.45),
+                Surface::matte(rng.random_range(0.2..0.45)),
             );
             if setback > 1.5 && rng.random::<f32>() < 0.5 {
                 bushes(out, ground, side, edge + 0.6, (x, x + len), 0.6, rng);
@@ -134,7 +142,7 @@ fn bushes(
                     radii,
                     heading: rng.random_range(-0.3..0.3),
                 },
-                rng.random_range(0.4..0.6),
+                Surface::foliage(rng.random_range(0.4..0.6)),
             );
         }
         x += 2.0 * radii[0] + rng.random_range(0.5..6.0);
@@ -154,7 +162,7 @@ fn poles(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32, rng: &
                     r: rng.random_range(0.08..0.15),
                     h,
                 },
-                0.3,
+                Surface::matte(0.3),
             );
             if rng.random::<f32>() < 0.3 {
                 // A retro-reflective sign facing the traffic.
@@ -164,7 +172,7 @@ fn poles(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32, rng: &
                         half: [0.02, 0.35, 0.3],
                         heading: 0.0,
                     },
-                    0.9,
+                    Surface::retro(0.9),
                 );
             }
         }
@@ -186,7 +194,7 @@ fn trees(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32, rng: &
                     r,
                     h: trunk,
                 },
-                0.35,
+                Surface::matte(0.35),
             );
             let cr = rng.random_range(1.2..2.8);
             let radii = [cr, cr * rng.random_range(0.8..1.0), rng.random_range(1.5..2.5)];
@@ -196,10 +204,126 @@ fn trees(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32, rng: &
                     radii,
                     heading: 0.0,
                 },
-                rng.random_range(0.4..0.55),
+                Surface::foliage(rng.random_range(0.4..0.55)),
             );
         }
         x += rng.random_range(8.0..20.0);
+    }
+}
+
+/// Along the property line, in segments: a hedge, a low wall, a fence of posts and rails, or
+/// nothing.
+fn boundaries(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, (x0, x1): (f32, f32), rng: &mut impl Rng) {
+    let s = &ground.street;
+    let mut x = x0;
+    while x < x1 {
+        let len = rng.random_range(5.0..25.0);
+        let (mid, depth) = (x + 0.5 * len, rng.random_range(0.5..1.2));
+        let y = s.centre_y + side * (edge + 0.3 + 0.5 * depth);
+        let z = ground.height(mid, y);
+        let u: f32 = rng.random();
+        if !s.in_crossing(x) && !s.in_crossing(x + len) {
+            if u < 0.3 {
+                let h = rng.random_range(0.7..1.8);
+                let hedge = cuboid_at([mid, y, z], [len, depth, h]);
+                out.add(hedge, Surface::foliage(rng.random_range(0.3..0.55)));
+            } else if u < 0.45 {
+                let h = rng.random_range(0.4..1.2);
+                let wall = cuboid_at([mid, y, z], [len, 0.3, h]);
+                out.add_obstacle(wall, Surface::matte(rng.random_range(0.15..0.45)));
+            } else if u < 0.65 {
+                fence(out, ground, [x, x + len], y, rng);
+            }
+        }
+        x += len + rng.random_range(0.0..8.0);
+    }
+}
+
+/// An upright box standing on `foot` (`[x, y, ground z]`) with extents `[along x, across, up]`.
+fn cuboid_at(foot: [f32; 3], size: [f32; 3]) -> Shape {
+    turned_cuboid_at(foot, size, 0.0)
+}
+
+/// The same, turned by `heading`.
+fn turned_cuboid_at(foot: [f32; 3], size: [f32; 3], heading: f32) -> Shape {
+    Shape::Cuboid {
+        c: [foot[0], foot[1], foot[2] + 0.5 * size[2]],
+        half: [0.5 * size[0], 0.5 * size[1], 0.5 * size[2]],
+        heading,
+    }
+}
+
+/// Posts every 2–3 m and two rails.
+fn fence(out: &mut Scenery, ground: &Ground, [x0, x1]: [f32; 2], y: f32, rng: &mut impl Rng) {
+    let h = rng.random_range(1.0..1.8);
+    let surface = Surface::matte(rng.random_range(0.15..0.5));
+    let step = rng.random_range(2.0..3.0);
+    let mut x = x0;
+    while x <= x1 {
+        out.add(cuboid_at([x, y, ground.height(x, y)], [0.08, 0.08, h]), surface);
+        x += step;
+    }
+    let mid = 0.5 * (x0 + x1);
+    let z = ground.height(mid, y);
+    for rail in [0.35 * h, 0.9 * h] {
+        out.add(cuboid_at([mid, y, z + rail], [x1 - x0, 0.05, 0.08]), surface);
+    }
+}
+
+/// Bins, utility cabinets, bollards and benches on the sidewalk.
+fn furniture(out: &mut Scenery, ground: &Ground, side: f32, (x0, x1): (f32, f32), rng: &mut impl Rng) {
+    let s = &ground.street;
+    let mut x = x0 + rng.random_range(0.0..15.0);
+    while x < x1 {
+        let y = s.centre_y + side * (s.half_width() + rng.random_range(0.4..(s.sidewalk - 0.4).max(0.5)));
+        if !s.in_crossing(x) {
+            let z = ground.height(x, y) + s.kerb;
+            let size = match rng.random_range(0..4) {
+                0 => [0.6, 0.6, rng.random_range(0.9..1.2)], // bin
+                1 => [1.2, 0.5, rng.random_range(1.1..1.6)], // utility cabinet
+                2 => [0.2, 0.2, rng.random_range(0.8..1.1)], // bollard
+                _ => [1.8, 0.6, rng.random_range(0.7..0.9)], // bench
+            };
+            let shape = turned_cuboid_at([x, y, z], size, rng.random_range(-0.2..0.2));
+            out.add_obstacle(shape, Surface::matte(rng.random_range(0.08..0.5)));
+        }
+        x += rng.random_range(6.0..30.0);
+    }
+}
+
+/// Beyond the sidewalk: grass mounds and car-sized clutter (skips, sheds, stacked goods,
+/// machinery), unlabelled.
+fn off_road(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, (x0, x1): (f32, f32), rng: &mut impl Rng) {
+    let s = &ground.street;
+    let mut x = x0 + rng.random_range(0.0..20.0);
+    while x < x1 {
+        let y = s.centre_y + side * (edge + rng.random_range(1.0..8.0));
+        if !s.in_crossing(x) {
+            let z = ground.height(x, y);
+            if rng.random::<f32>() < 0.5 {
+                let radii = [
+                    rng.random_range(2.0..5.0),
+                    rng.random_range(1.5..4.0),
+                    rng.random_range(0.5..1.5),
+                ];
+                let sunk = rng.random_range(0.3..0.7) * radii[2];
+                let mound = Shape::Ellipsoid {
+                    c: [x, y, z - sunk],
+                    radii,
+                    heading: rng.random_range(-0.5..0.5),
+                };
+                out.add(mound, Surface::matte(rng.random_range(0.25..0.5)));
+            } else {
+                let size = [
+                    rng.random_range(1.5..4.5),
+                    rng.random_range(1.0..2.4),
+                    rng.random_range(0.8..2.3),
+                ];
+                let shape = turned_cuboid_at([x, y, z], size, rng.random_range(-0.6..0.6));
+                out.add_obstacle(shape, Surface::matte(rng.random_range(0.08..0.5)));
+            }
+        }
+        x += rng.random_range(8.0..40.0);
     }
 }
 

@@ -1,5 +1,6 @@
 //! The simulated spinning LiDAR: an HDL-64E as KITTI mounts it (kitti-format.md §4).
 
+use super::IntensityModel;
 use serde::{Deserialize, Serialize};
 
 /// A spinning multi-beam LiDAR.
@@ -17,6 +18,9 @@ pub struct LidarConfig {
     pub dropout: f32,
     /// Height of the sensor above the road (metres).
     pub mount_height: f32,
+    /// What each return reports as reflectance (exact zeros for weak returns, gains).
+    #[serde(default)]
+    pub intensity: IntensityModel,
 }
 
 /// The HDL-64E's 64 elevations: the upper block of 32 beams 1/3° apart from +2°, the lower
@@ -36,6 +40,7 @@ impl Default for LidarConfig {
             range_noise: 0.02,
             dropout: 0.03,
             mount_height: 1.73,
+            intensity: IntensityModel::default(),
         }
     }
 }

@@ -85,6 +85,24 @@ impl Shape {
         }
     }
 
+    /// Whether `p` lies inside (or on) the solid.
+    pub fn contains(&self, p: [f32; 3]) -> bool {
+        match *self {
+            Shape::Cuboid { c, half, heading } => {
+                let q = rot([p[0] - c[0], p[1] - c[1]], -heading);
+                q[0].abs() <= half[0] && q[1].abs() <= half[1] && (p[2] - c[2]).abs() <= half[2]
+            }
+            Shape::Cylinder { base, r, h } => {
+                (p[0] - base[0]).hypot(p[1] - base[1]) <= r && (base[2]..=base[2] + h).contains(&p[2])
+            }
+            Shape::Ellipsoid { c, radii, heading } => {
+                let q = rot([p[0] - c[0], p[1] - c[1]], -heading);
+                let z = p[2] - c[2];
+                (q[0] / radii[0]).powi(2) + (q[1] / radii[1]).powi(2) + (z / radii[2]).powi(2) <= 1.0
+            }
+        }
+    }
+
     /// Centre and radius of a circle containing the solid's footprint.
     pub fn bounding_circle(&self) -> ([f32; 2], f32) {
         match *self {
@@ -213,6 +231,32 @@ mod tests {
 
     fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
         Ray { o, d: normalize(d) }
+    }
+
+    #[test]
+    fn contains_agrees_with_the_entry_and_a_step_inside() {
+        let r = ray([0.0; 3], [1.0, 0.2, 0.05]);
+        for s in [
+            Shape::Cuboid {
+                c: [10.0, 2.0, 0.0],
+                half: [2.0, 1.0, 0.5],
+                heading: 0.3,
+            },
+            Shape::Cylinder {
+                base: [10.0, 2.0, -1.0],
+                r: 1.0,
+                h: 3.0,
+            },
+            Shape::Ellipsoid {
+                c: [10.0, 2.0, 0.5],
+                radii: [2.0, 1.0, 1.5],
+                heading: -0.4,
+            },
+        ] {
+            let (t, _) = s.intersect(&r).unwrap();
+            assert!(s.contains(r.at(t + 0.05)) && !s.contains(r.at(t - 0.05)), "{s:?}");
+            assert!(!s.contains([0.0; 3]));
+        }
     }
 
     #[test]

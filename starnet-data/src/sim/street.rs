@@ -3,7 +3,7 @@
 //! World frame: the LiDAR frame of the scene's first frame (x along the street, the ego in a
 //! right-hand travel lane at y = 0, ground 1.73 m below the sensor at the origin).
 
-use super::Terrain;
+use super::{Surface, Terrain};
 use rand::Rng;
 
 /// Cross-section of the street; the road runs along world x.
@@ -123,12 +123,12 @@ impl Ground {
         self.raw(x, y) + self.offset
     }
 
-    /// Ground reflectance: asphalt, dashed lane markings, and soil or grass off the street.
-    pub fn reflectance(&self, x: f32, y: f32) -> f32 {
+    /// Ground surface: asphalt, dashed lane markings, and soil or grass off the street.
+    pub fn surface(&self, x: f32, y: f32) -> Surface {
         let s = &self.street;
         let lat = s.lateral(y);
         if lat.abs() > s.half_width() && !s.in_crossing(x) {
-            return 0.45;
+            return Surface::matte(0.45);
         }
         // Dashed lines between lanes and on the centre line, a solid line along the edge of
         // the travel lanes.
@@ -137,7 +137,7 @@ impl Ground {
             let solid = i == s.lanes_per_side;
             (lat.abs() - i as f32 * s.lane_width).abs() < 0.08 && (solid || dash)
         });
-        if on_line { 0.75 } else { 0.28 }
+        Surface::matte(if on_line { 0.75 } else { 0.28 })
     }
 }
 
@@ -163,9 +163,9 @@ impl Terrain for GroundView<'_> {
         self.ground.height(wx, wy) - self.pose[2]
     }
 
-    fn reflectance(&self, x: f32, y: f32) -> f32 {
+    fn surface(&self, x: f32, y: f32) -> Surface {
         let (wx, wy) = self.world_xy(x, y);
-        self.ground.reflectance(wx, wy)
+        self.ground.surface(wx, wy)
     }
 }
 

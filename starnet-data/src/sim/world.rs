@@ -159,7 +159,7 @@ impl World {
             .iter()
             .map(|(s, r)| Primitive {
                 shape: place(s, inv),
-                reflectance: *r,
+                surface: *r,
                 owner: None,
             })
             .collect();
@@ -168,7 +168,7 @@ impl World {
             let ap = self.to_frame(a.pose(t, &self.ground), inv);
             prims.extend(a.parts.iter().map(|(s, r)| Primitive {
                 shape: place(s, ap),
-                reflectance: *r,
+                surface: *r,
                 owner: Some(i as u32),
             }));
             boxes.push(place_box(a.local_box.0, a.local_box.1, 0.0, ap));

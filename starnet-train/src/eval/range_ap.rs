@@ -4,7 +4,7 @@
 
 use super::kitti_ap::{Ap, kitti_ap};
 use serde::{Deserialize, Serialize};
-use starnet_data::kitti::{Calib, KittiObject, ObjectClass};
+use starnet_data::kitti::{Calib, Difficulty, KittiObject, ObjectClass};
 
 /// Width of a distance bin, metres.
 pub const RANGE_BIN_M: f32 = 10.0;
@@ -16,7 +16,8 @@ pub struct RangeAp {
     pub lo: f32,
     /// Bin end, metres.
     pub hi: f32,
-    /// Labelled objects of the class in the bin (every difficulty).
+    /// Labelled objects of the class in the bin that count at moderate difficulty (easy or
+    /// moderate by the devkit's thresholds): the objects its AP is computed over.
     pub num_objects: usize,
     /// 3D AP, moderate.
     pub three_d: Ap,
@@ -51,7 +52,9 @@ pub fn ap_by_range(
                     (gt, dt)
                 })
                 .collect();
-            let num_objects = subset.iter().flat_map(|f| &f.0).filter(|o| o.class == class).count();
+            let counts =
+                |o: &&KittiObject| o.class == class && o.difficulty().is_some_and(|d| d <= Difficulty::Moderate);
+            let num_objects = subset.iter().flat_map(|f| &f.0).filter(counts).count();
             let ap = kitti_ap(&subset, &[class]).remove(0);
             RangeAp {
                 lo,
@@ -93,10 +96,15 @@ mod tests {
     #[test]
     fn each_bin_is_evaluated_on_its_own_objects() {
         // Per frame one car at 5 m (found) and one at 25 m (missed): 40 frames so the devkit's
-        // sampling reaches recall 1 in the near bin.
+        // sampling reaches recall 1 in the near bin. A largely occluded car at 15 m counts at
+        // hard only: its bin shows no object at moderate.
+        let hard_only = KittiObject {
+            occluded: 2,
+            ..car(15.0, 250.0, None)
+        };
         let frames: Vec<_> = (0..40)
             .map(|k| {
-                let gt = vec![car(5.0, 100.0, None), car(25.0, 400.0, None)];
+                let gt = vec![car(5.0, 100.0, None), hard_only.clone(), car(25.0, 400.0, None)];
                 let dt = vec![car(5.0, 100.0, Some(0.5 + 0.01 * k as f32))];
                 (gt, dt)
             })

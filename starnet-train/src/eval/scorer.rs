@@ -104,7 +104,11 @@ impl std::fmt::Display for Scores {
         writeln!(f, "\nWaymo-style 3D AP / APH (LEVEL_1 > 5 points, LEVEL_2 ≥ 1):")?;
         write!(f, "{}", self.waymo_table())?;
         if let (Some(c), false) = (self.classes.first(), self.by_range.is_empty()) {
-            write!(f, "\n{} 3D AP R40 moderate by distance:", c.class)?;
+            write!(
+                f,
+                "\n{} 3D AP R40 moderate by distance (objects that count at moderate):",
+                c.class
+            )?;
             for b in self.by_range.iter().filter(|b| b.num_objects > 0) {
                 write!(f, " {}-{} m {:.1} ({});", b.lo, b.hi, b.three_d.r40, b.num_objects)?;
             }

@@ -5,11 +5,11 @@
 //! (seed, k), so a resumed run sees exactly the items the uninterrupted one would have.
 
 use super::schedule::Schedule;
-use crate::Result;
 use crate::config::ExperimentConfig;
 use crate::distributed::Shard;
 use crate::prepare::database_path;
 use crate::synth::progress_bar;
+use crate::{Result, TrainError};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -17,7 +17,7 @@ use starnet_data::augment::GtDatabase;
 use starnet_data::kitti::KittiDataset;
 use starnet_data::loader::Loader;
 use starnet_data::sampling::{Augmentation, PreparedFrame, prepare_frame, prepare_sweep};
-use starnet_data::sim::{SynthConfig, sub_seed, synth_frames};
+use starnet_data::sim::{SIMULATOR_VERSION, SynthConfig, generated_version, sub_seed, synth_frames};
 use starnet_model::assign::AnchorTargets;
 use starnet_model::batch::frame_targets;
 use std::sync::Arc;
@@ -35,6 +35,16 @@ pub struct TrainItem {
 /// database if the paste augmentation needs it.
 pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
     let root = &cfg.data.root;
+    if cfg.data.simulate_frames > 0
+        && let Some(found) = generated_version(root)?
+        && found != SIMULATOR_VERSION
+    {
+        return Err(TrainError::StaleSimulation {
+            root: root.clone(),
+            found,
+            expected: SIMULATOR_VERSION,
+        });
+    }
     if !root.join("training/velodyne").is_dir() && cfg.data.simulate_frames > 0 {
         println!(
             "generating {} simulated frames at {}",
@@ -131,4 +141,36 @@ pub fn train_loader(
             train_item(&cfg, &ds, database.as_deref(), &schedule, k)
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn data_from_another_simulator_version_is_refused_and_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("sim");
+        std::fs::create_dir_all(root.join("training/velodyne")).unwrap();
+        // A set written before the version field existed: version 1.
+        std::fs::write(
+            root.join("synth.json"),
+            r#"{"generator": "starnet synth", "frames": 2}"#,
+        )
+        .unwrap();
+        let mut cfg = ExperimentConfig::default();
+        cfg.data.root = root.clone();
+        cfg.data.simulate_frames = 2;
+        cfg.augment.db_paste.enabled = false;
+        match ensure_data(&cfg) {
+            Err(TrainError::StaleSimulation { found, expected, .. }) => {
+                assert_eq!((found, expected), (1, SIMULATOR_VERSION));
+            }
+            other => panic!("expected a stale-simulation error, got {other:?}"),
+        }
+        assert!(root.join("synth.json").is_file(), "nothing is deleted");
+        // A real dataset (no synth.json) is never questioned.
+        std::fs::remove_file(root.join("synth.json")).unwrap();
+        assert!(ensure_data(&cfg).is_ok());
+    }
 }

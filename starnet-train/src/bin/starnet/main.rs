@@ -39,6 +39,7 @@ enum Command {
     Plot(outputs::Plot),
     Config(outputs::Config),
     Synth(frames::Synth),
+    CompareData(frames::CompareData),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -58,5 +59,6 @@ fn main() -> anyhow::Result<()> {
         Command::Plot(c) => c.run(),
         Command::Config(c) => c.run(),
         Command::Synth(c) => c.run(),
+        Command::CompareData(c) => c.run(),
     }
 }

@@ -1,0 +1,197 @@
+//! `starnet compare-data`: how far one set of scans is from another, in the statistics that
+//! decide whether a detector trained on one finds objects in the other (issue #33): the
+//! reflectance by range and by what was hit (ground, cars, the rest), the share of returns
+//! reading exactly 0, the points, reflectance, height and viewpoint of labelled cars by
+//! distance, how volumetric the background is, and how rough the ground beside the road.
+//!
+//! Everything is measured in the camera's field of view (where KITTI labels objects), in the
+//! LiDAR frame, on any KITTI-layout folder: the simulator's, real KITTI, or a user's own sensor
+//! written in that layout.
+
+mod cars;
+mod compare;
+mod ground;
+mod reflectance;
+mod surfaces;
+
+pub use cars::{CAR_EDGES_M, CarBin, CarSample, HIGH_POINT_M, car_bins, car_sample};
+pub use compare::{ComparisonRow, RealismComparison};
+pub use ground::{GROUND_BAND_M, GROUND_CELL_M, GroundGrid};
+pub use reflectance::{RANGE_EDGES_M, ReflectanceBin, ReflectanceSums, range_bin};
+pub use surfaces::{
+    LocalShape, SURFACE_MIN_NEIGHBOURS, SURFACE_RADIUS_M, VERTICAL_NORMAL_Z, VOLUMETRIC_SCATTER, local_shape,
+    sampled_shapes,
+};
+
+use crate::kitti::{Frame, KittiDataset, ObjectClass};
+use crate::summary::{mean, quantile};
+use crate::{Point, Result};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Every `SURFACE_STRIDE`-th background return is measured for its shape.
+const SURFACE_STRIDE: usize = 8;
+/// Background shapes are measured between these ranges, metres (nearer, a 0.5 m ball holds
+/// many rings; farther, too few returns).
+const SURFACE_RANGE_M: (f32, f32) = (5.0, 30.0);
+/// Off-road cells: beyond this lateral distance, within [`SURFACE_RANGE_M`].
+const OFF_ROAD_Y_M: f32 = 8.0;
+/// The road level: cells within this lateral distance.
+const ROAD_Y_M: f32 = 3.0;
+
+/// Reflectance by range for each kind of return.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct ReflectanceTable {
+    /// Every return in the camera's view.
+    pub all: Vec<ReflectanceBin>,
+    /// Ground returns ([`GroundGrid`]).
+    pub ground: Vec<ReflectanceBin>,
+    /// Returns inside labelled cars.
+    pub cars: Vec<ReflectanceBin>,
+    /// The rest: neither ground nor inside a labelled object.
+    pub background: Vec<ReflectanceBin>,
+}
+
+/// The shape of the background and of the ground beside the road.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct SurfaceStats {
+    /// Background neighbourhoods measured.
+    pub sampled: usize,
+    /// Volumetric ones (foliage, clutter), percent.
+    pub volumetric_percent: f64,
+    /// Planar vertical ones (walls, fences), percent.
+    pub vertical_percent: f64,
+    /// Median height of background returns above their cell's lowest return, metres.
+    pub background_height_p50: f64,
+    /// 90th percentile of the lowest return of off-road cells above the road level, metres.
+    pub off_road_p90: f64,
+}
+
+/// The statistics of one folder.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct RealismReport {
+    /// The folder.
+    pub root: PathBuf,
+    /// Frames read.
+    pub frames: usize,
+    /// Mean returns per frame.
+    pub points_per_frame: f64,
+    /// Mean returns per frame in the camera's view.
+    pub view_points_per_frame: f64,
+    /// Reflectance by range.
+    pub reflectance: ReflectanceTable,
+    /// Labelled cars by distance.
+    pub cars: Vec<CarBin>,
+    /// Background and ground shape.
+    pub surfaces: SurfaceStats,
+}
+
+/// Running sums over frames.
+#[derive(Default)]
+struct Sums {
+    points: Vec<f64>,
+    view_points: Vec<f64>,
+    all: ReflectanceSums,
+    ground: ReflectanceSums,
+    cars: ReflectanceSums,
+    background: ReflectanceSums,
+    car_samples: Vec<CarSample>,
+    shapes: Vec<LocalShape>,
+    heights: Vec<f64>,
+    off_road: Vec<f64>,
+}
+
+impl Sums {
+    fn add(&mut self, frame: &Frame) {
+        self.points.push(frame.points.len() as f64);
+        let cloud = frame.calib.crop_to_fov(&frame.points, frame.image_size);
+        self.view_points.push(cloud.len() as f64);
+        let ground = GroundGrid::new(&cloud);
+        let (in_object, in_car) = object_masks(frame, &cloud);
+        for (i, p) in cloud.iter().enumerate() {
+            let r = p[0].hypot(p[1]);
+            self.all.add(r, p[3]);
+            if in_car[i] {
+                self.cars.add(r, p[3]);
+            } else if ground.is_ground(p) {
+                self.ground.add(r, p[3]);
+            } else if !in_object[i] {
+                self.background.add(r, p[3]);
+                if i % SURFACE_STRIDE == 0 {
+                    self.heights.push(ground.height_above(p) as f64);
+                }
+            }
+        }
+        let background = |i: usize| {
+            let p = &cloud[i];
+            let r = p[0].hypot(p[1]);
+            !in_object[i] && !ground.is_ground(p) && (SURFACE_RANGE_M.0..SURFACE_RANGE_M.1).contains(&r)
+        };
+        self.shapes.extend(sampled_shapes(&cloud, SURFACE_STRIDE, background));
+        self.add_off_road(&ground);
+        for (o, b) in frame.labelled_boxes() {
+            if o.class == ObjectClass::Car {
+                self.car_samples.extend(car_sample(&b, &cloud));
+            }
+        }
+    }
+
+    fn add_off_road(&mut self, ground: &GroundGrid) {
+        let near = |x: f32| (SURFACE_RANGE_M.0..SURFACE_RANGE_M.1).contains(&x);
+        let road = ground.cell_minima(|x, y| near(x) && y.abs() < ROAD_Y_M);
+        let Some(level) = quantile(&road.iter().map(|z| *z as f64).collect::<Vec<_>>(), 0.5) else {
+            return;
+        };
+        let off = ground.cell_minima(|x, y| near(x) && y.abs() > OFF_ROAD_Y_M);
+        self.off_road.extend(off.iter().map(|z| *z as f64 - level));
+    }
+
+    fn report(self, root: &Path, frames: usize) -> RealismReport {
+        let shapes = self.shapes.len().max(1) as f64;
+        let percent = |f: fn(&LocalShape) -> bool| 100.0 * self.shapes.iter().filter(|s| f(s)).count() as f64 / shapes;
+        RealismReport {
+            root: root.to_path_buf(),
+            frames,
+            points_per_frame: mean(&self.points),
+            view_points_per_frame: mean(&self.view_points),
+            reflectance: ReflectanceTable {
+                all: self.all.bins(),
+                ground: self.ground.bins(),
+                cars: self.cars.bins(),
+                background: self.background.bins(),
+            },
+            cars: car_bins(&self.car_samples),
+            surfaces: SurfaceStats {
+                sampled: self.shapes.len(),
+                volumetric_percent: percent(LocalShape::volumetric),
+                vertical_percent: percent(LocalShape::vertical),
+                background_height_p50: quantile(&self.heights, 0.5).unwrap_or(0.0),
+                off_road_p90: quantile(&self.off_road, 0.9).unwrap_or(0.0),
+            },
+        }
+    }
+}
+
+/// Per point of `cloud`: inside any labelled object (DontCare aside), and inside a car.
+fn object_masks(frame: &Frame, cloud: &[Point]) -> (Vec<bool>, Vec<bool>) {
+    let (mut object, mut car) = (vec![false; cloud.len()], vec![false; cloud.len()]);
+    for (o, b) in frame.labelled_boxes() {
+        for i in b.points_inside(cloud) {
+            object[i] = true;
+            car[i] |= o.class == ObjectClass::Car;
+        }
+    }
+    (object, car)
+}
+
+/// Measures the frames of `root` (those of `split` when given; at most `max_frames`, the
+/// first in id order, when given).
+pub fn realism_report(root: &Path, split: Option<&str>, max_frames: Option<usize>) -> Result<RealismReport> {
+    let ds = KittiDataset::open(root, split)?;
+    let ids = &ds.ids()[..ds.ids().len().min(max_frames.unwrap_or(usize::MAX))];
+    let mut sums = Sums::default();
+    for id in ids {
+        sums.add(&ds.load(id)?);
+    }
+    Ok(sums.report(root, ids.len()))
+}
