@@ -48,6 +48,13 @@ impl RealismComparison {
                 r.surfaces.background_height_p50
             }),
             row("off-road ground above the road, p90 (m)", |r| r.surfaces.off_road_p90),
+            row("car-sized background clusters per frame", |r| r.clusters.per_frame),
+            row("car-sized background clusters per frame at 20–50 m", |r| {
+                r.clusters.per_frame_20_50
+            }),
+            row("their mean reflectance at 35–50 m", |r| {
+                r.clusters.mean_reflectance_35_50
+            }),
         ]
     }
 

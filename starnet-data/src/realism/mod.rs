@@ -2,19 +2,22 @@
 //! decide whether a detector trained on one finds objects in the other (issue #33): the
 //! reflectance by range and by what was hit (ground, cars, the rest), the share of returns
 //! reading exactly 0, the points, reflectance, height and viewpoint of labelled cars by
-//! distance, how volumetric the background is, and how rough the ground beside the road.
+//! distance, how volumetric the background is, how many car-sized clusters it holds, and how
+//! rough the ground beside the road.
 //!
 //! Everything is measured in the camera's field of view (where KITTI labels objects), in the
 //! LiDAR frame, on any KITTI-layout folder: the simulator's, real KITTI, or a user's own sensor
 //! written in that layout.
 
 mod cars;
+mod clusters;
 mod compare;
 mod ground;
 mod reflectance;
 mod surfaces;
 
 pub use cars::{CAR_EDGES_M, CarBin, CarSample, HIGH_POINT_M, car_bins, car_sample};
+pub use clusters::{CAR_SIZED, CLUSTER_CELL_M, CLUSTER_MIN_POINTS, Cluster, clusters};
 pub use compare::{ComparisonRow, RealismComparison};
 pub use ground::{GROUND_BAND_M, GROUND_CELL_M, GroundGrid};
 pub use reflectance::{RANGE_EDGES_M, ReflectanceBin, ReflectanceSums, range_bin};
@@ -67,6 +70,17 @@ pub struct SurfaceStats {
     pub off_road_p90: f64,
 }
 
+/// Car-sized clusters of background returns ([`clusters`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ClusterStats {
+    /// Per frame, anywhere in the camera view.
+    pub per_frame: f64,
+    /// Per frame, 20–50 m from the sensor.
+    pub per_frame_20_50: f64,
+    /// Mean over those at 35–50 m of their mean reflectance (labelled cars there: [`CarBin`]).
+    pub mean_reflectance_35_50: f64,
+}
+
 /// The statistics of one folder.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct RealismReport {
@@ -84,6 +98,8 @@ pub struct RealismReport {
     pub cars: Vec<CarBin>,
     /// Background and ground shape.
     pub surfaces: SurfaceStats,
+    /// Car-sized background clusters.
+    pub clusters: ClusterStats,
 }
 
 /// Running sums over frames.
@@ -99,6 +115,7 @@ struct Sums {
     shapes: Vec<LocalShape>,
     heights: Vec<f64>,
     off_road: Vec<f64>,
+    car_sized: Vec<Cluster>,
 }
 
 impl Sums {
@@ -128,6 +145,12 @@ impl Sums {
             !in_object[i] && !ground.is_ground(p) && (SURFACE_RANGE_M.0..SURFACE_RANGE_M.1).contains(&r)
         };
         self.shapes.extend(sampled_shapes(&cloud, SURFACE_STRIDE, background));
+        let rest: Vec<Point> = (0..cloud.len())
+            .filter(|&i| !in_object[i] && !ground.is_ground(&cloud[i]))
+            .map(|i| cloud[i])
+            .collect();
+        self.car_sized
+            .extend(clusters(&rest).into_iter().filter(Cluster::car_sized));
         self.add_off_road(&ground);
         for (o, b) in frame.labelled_boxes() {
             if o.class == ObjectClass::Car {
@@ -146,6 +169,17 @@ impl Sums {
         self.off_road.extend(off.iter().map(|z| *z as f64 - level));
     }
 
+    fn cluster_stats(&self, frames: usize) -> ClusterStats {
+        let n = frames.max(1) as f64;
+        let within = |lo: f32, hi: f32| self.car_sized.iter().filter(move |c| (lo..hi).contains(&c.distance));
+        let far: Vec<f64> = within(35.0, 50.0).map(|c| c.mean_reflectance as f64).collect();
+        ClusterStats {
+            per_frame: self.car_sized.len() as f64 / n,
+            per_frame_20_50: within(20.0, 50.0).count() as f64 / n,
+            mean_reflectance_35_50: mean(&far),
+        }
+    }
+
     fn report(self, root: &Path, frames: usize) -> RealismReport {
         let shapes = self.shapes.len().max(1) as f64;
         let percent = |f: fn(&LocalShape) -> bool| 100.0 * self.shapes.iter().filter(|s| f(s)).count() as f64 / shapes;
@@ -161,6 +195,7 @@ impl Sums {
                 background: self.background.bins(),
             },
             cars: car_bins(&self.car_samples),
+            clusters: self.cluster_stats(frames),
             surfaces: SurfaceStats {
                 sampled: self.shapes.len(),
                 volumetric_percent: percent(LocalShape::volumetric),
