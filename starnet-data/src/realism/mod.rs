@@ -124,31 +124,28 @@ impl Sums {
         let cloud = frame.calib.crop_to_fov(&frame.points, frame.image_size);
         self.view_points.push(cloud.len() as f64);
         let ground = GroundGrid::new(&cloud);
-        let (in_object, in_car) = object_masks(frame, &cloud);
-        for (i, p) in cloud.iter().enumerate() {
+        let kinds = classify(frame, &cloud, &ground);
+        for (p, kind) in cloud.iter().zip(&kinds) {
             let r = p[0].hypot(p[1]);
-            self.all.add(r, p[3]);
-            if in_car[i] {
-                self.cars.add(r, p[3]);
-            } else if ground.is_ground(p) {
-                self.ground.add(r, p[3]);
-            } else if !in_object[i] {
-                self.background.add(r, p[3]);
-                if i % SURFACE_STRIDE == 0 {
-                    self.heights.push(ground.height_above(p) as f64);
-                }
+            match kind {
+                Return::Car => self.cars.add(r, p[3]),
+                Return::Ground => self.ground.add(r, p[3]),
+                Return::Object => {}
+                Return::Background => self.background.add(r, p[3]),
             }
+            self.all.add(r, p[3]);
         }
-        let background = |i: usize| {
-            let p = &cloud[i];
-            let r = p[0].hypot(p[1]);
-            !in_object[i] && !ground.is_ground(p) && (SURFACE_RANGE_M.0..SURFACE_RANGE_M.1).contains(&r)
-        };
-        self.shapes.extend(sampled_shapes(&cloud, SURFACE_STRIDE, background));
-        let rest: Vec<Point> = (0..cloud.len())
-            .filter(|&i| !in_object[i] && !ground.is_ground(&cloud[i]))
-            .map(|i| cloud[i])
-            .collect();
+        let background = |i: usize| kinds[i] == Return::Background;
+        self.heights.extend(
+            (0..cloud.len())
+                .step_by(SURFACE_STRIDE)
+                .filter(|&i| background(i))
+                .map(|i| ground.height_above(&cloud[i]) as f64),
+        );
+        let near = |i: usize| (SURFACE_RANGE_M.0..SURFACE_RANGE_M.1).contains(&cloud[i][0].hypot(cloud[i][1]));
+        self.shapes
+            .extend(sampled_shapes(&cloud, SURFACE_STRIDE, |i| background(i) && near(i)));
+        let rest: Vec<Point> = (0..cloud.len()).filter(|&i| background(i)).map(|i| cloud[i]).collect();
         self.car_sized
             .extend(clusters(&rest).into_iter().filter(Cluster::car_sized));
         self.add_off_road(&ground);
@@ -207,8 +204,21 @@ impl Sums {
     }
 }
 
-/// Per point of `cloud`: inside any labelled object (DontCare aside), and inside a car.
-fn object_masks(frame: &Frame, cloud: &[Point]) -> (Vec<bool>, Vec<bool>) {
+/// What a return of the camera view hit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Return {
+    /// Inside a labelled car.
+    Car,
+    /// Ground ([`GroundGrid`]), outside every labelled car.
+    Ground,
+    /// Inside another labelled object (DontCare aside), not ground.
+    Object,
+    /// The rest.
+    Background,
+}
+
+/// Per point of `cloud`, what it hit.
+fn classify(frame: &Frame, cloud: &[Point], ground: &GroundGrid) -> Vec<Return> {
     let (mut object, mut car) = (vec![false; cloud.len()], vec![false; cloud.len()]);
     for (o, b) in frame.labelled_boxes() {
         for i in b.points_inside(cloud) {
@@ -216,7 +226,16 @@ fn object_masks(frame: &Frame, cloud: &[Point]) -> (Vec<bool>, Vec<bool>) {
             car[i] |= o.class == ObjectClass::Car;
         }
     }
-    (object, car)
+    cloud
+        .iter()
+        .enumerate()
+        .map(|(i, p)| match (car[i], ground.is_ground(p), object[i]) {
+            (true, _, _) => Return::Car,
+            (false, true, _) => Return::Ground,
+            (false, false, true) => Return::Object,
+            (false, false, false) => Return::Background,
+        })
+        .collect()
 }
 
 /// Measures the frames of `root` (those of `split` when given; at most `max_frames`, the

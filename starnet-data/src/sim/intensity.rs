@@ -209,9 +209,7 @@ impl IntensityModel {
         let v = self.value(surface, cos, r) + noise;
         (v.clamp(0.0, 0.99) * 100.0).round() / 100.0
     }
-}
 
-impl IntensityModel {
     /// The cosine of incidence once the panel's normal is tilted by N(0, gloss_tilt) in the
     /// plane of incidence: towards the sensor or away, never past grazing.
     fn tilted(&self, cos: f32, rng: &mut impl Rng) -> f32 {
@@ -225,9 +223,7 @@ impl IntensityModel {
         // cos(π/2) is −4e-8 in f32.
         angle.cos().max(0.0)
     }
-}
 
-impl IntensityModel {
     /// How far into foliage a ray goes before it returns: Exp(mean `foliage_depth`).
     pub fn foliage_penetration(&self, rng: &mut impl Rng) -> f32 {
         -self.foliage_depth * (1.0 - rng.random::<f32>()).ln()

@@ -98,11 +98,12 @@ struct Hit {
 }
 
 /// What one ray met besides its return, in buffers reused from ray to ray: the objects whose
-/// solids it crossed, and those it saw through their windows (with where).
+/// solids it crossed, those it saw through their windows (with where), and the objects it saw.
 #[derive(Debug, Default)]
 struct Sightings {
     crossed: Vec<u32>,
     seen_through: Vec<(u32, f32)>,
+    seen: Vec<u32>,
 }
 
 /// The nearest solid among `candidates` that returns `ray`.
@@ -171,21 +172,24 @@ impl Scan {
     /// Counts a ray toward every object it crossed (those behind its return are occluded),
     /// and as a hit on the object it returned from and on those it saw through their windows
     /// with nothing nearer.
-    fn count_sightings(&mut self, sight: &Sightings, first: Option<Hit>) {
+    fn count_sightings(&mut self, sight: &mut Sightings, first: Option<Hit>) {
         for &o in &sight.crossed {
             self.rays_toward[o as usize] += 1;
         }
         let (t_first, owner) = first.map_or((f32::INFINITY, None), |h| (h.t, h.owner));
-        let mut seen: Vec<u32> = sight
-            .seen_through
-            .iter()
-            .filter(|(_, t)| *t < t_first)
-            .map(|(o, _)| *o)
-            .chain(owner)
-            .collect();
+        let seen = &mut sight.seen;
+        seen.clear();
+        seen.extend(
+            sight
+                .seen_through
+                .iter()
+                .filter(|(_, t)| *t < t_first)
+                .map(|(o, _)| *o)
+                .chain(owner),
+        );
         seen.sort_unstable();
         seen.dedup();
-        for o in seen {
+        for &o in seen.iter() {
             self.rays_hit[o as usize] += 1;
         }
     }
@@ -224,7 +228,7 @@ pub fn scan(
                 let (n, surface, owner) = ([0.0, 0.0, 1.0], terrain.surface(p[0], p[1]), None);
                 first = Some(Hit { t, n, surface, owner });
             }
-            out.count_sightings(&sight, first);
+            out.count_sightings(&mut sight, first);
             let Some(hit) = first else { continue };
             if rng.random::<f32>() < lidar.dropout + dark_surface_dropout(hit.surface) {
                 continue;
