@@ -17,11 +17,13 @@ seeds=${SEEDS:-0 1 2}
 real=${REAL:-../shared/kitti-real-dev}
 out=${OUT:-runs/transfer}
 
-# name | overrides (space-separated KEY=VALUE). `quickstart` is the shipped config (geometry only);
-# `reflectance` feeds the measured reflectance, `reflectance-augmented` also augments it.
+# name | overrides (space-separated KEY=VALUE). `quickstart` is the shipped config (geometry only, each
+# object turned by up to ±45°); `rotation-9` turns objects by lingvo's ±9° instead; `reflectance` feeds the
+# measured reflectance, `reflectance-augmented` also augments it.
 variants() {
   cat <<'V'
 quickstart|
+rotation-9|augment.box_rotation.max=0.15707964
 reflectance|pipeline.gather.reflectance="measured"
 reflectance-augmented|pipeline.gather.reflectance="measured" augment.reflectance.enabled=true
 V

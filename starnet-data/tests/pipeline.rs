@@ -183,9 +183,10 @@ fn the_center_pool_follows_the_recording_not_the_augmentation() {
 }
 
 #[test]
-fn an_objects_returns_scatter_about_its_tight_box() {
-    // Range noise puts a good part of a simulated car's returns just outside its tight box: the
-    // object margin is what keeps them with the object in the database and the box rotation.
+fn an_objects_returns_scatter_about_its_box() {
+    // Range noise puts some of a simulated car's returns just outside its labelled box (tight
+    // on the sides; its ends, top and bottom carry the annotator's margin, `AnnotationMargin`):
+    // the object margin is what keeps them with the object in the database and the box rotation.
     let (_dir, ds) = dataset();
     let (mut tight, mut grown) = (0, 0);
     for id in ds.ids() {
@@ -198,7 +199,7 @@ fn an_objects_returns_scatter_about_its_tight_box() {
         }
     }
     assert!(
-        grown as f64 > 1.3 * tight as f64,
+        grown as f64 > 1.02 * tight as f64,
         "{tight} inside, {grown} within 10 cm"
     );
     let db = GtDatabase::build(&ds, &|| {}).unwrap();

@@ -1,6 +1,6 @@
 //! Two reports side by side: every cell reads `A / B`.
 
-use super::{CarBin, RANGE_EDGES_M, RealismReport, ReflectanceBin};
+use super::{CarBin, FIT_MIN_POINTS, RANGE_EDGES_M, RealismReport, ReflectanceBin};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -124,11 +124,40 @@ impl RealismComparison {
                 cell(|c| c.side_percent, 0),
             )?;
         }
+        self.fit_table(f)
+    }
+
+    fn fit_table(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "\nHow labelled car boxes sit on their returns (cars with at least {FIT_MIN_POINTS} returns), medians in metres, A / B:\n"
+        )?;
+        writeln!(
+            f,
+            "| distance | cars measured | box top above the returns | box end past the returns (the sensor's end) | depth of the end's returns behind it | road beside the car above the box bottom |"
+        )?;
+        writeln!(f, "|---|---|---|---|---|---|")?;
+        for (p, q) in self.a.cars.iter().zip(&self.b.cars) {
+            let side = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.3}"));
+            let cell = |v: fn(&CarBin) -> Option<f64>| format!("{} / {}", side(v(p)), side(v(q)));
+            writeln!(
+                f,
+                "| {}–{} m | {} | {} | {} | {} | {} |",
+                p.lo,
+                p.hi,
+                pair(p.fitted as f64, q.fitted as f64, 0),
+                cell(|c| c.top_gap_m),
+                cell(|c| c.end_gap_m),
+                cell(|c| c.end_depth_m),
+                cell(|c| c.road_gap_m),
+            )?;
+        }
         Ok(())
     }
 }
 
-/// Markdown: the single figures, reflectance mean and zero share by range, cars by distance.
+/// Markdown: the single figures, reflectance mean and zero share by range, cars by distance
+/// and how their boxes sit on their returns.
 impl fmt::Display for RealismComparison {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "A = {}\nB = {}\n", self.a.root.display(), self.b.root.display())?;

@@ -16,7 +16,10 @@ mod ground;
 mod reflectance;
 mod surfaces;
 
-pub use cars::{CAR_EDGES_M, CarBin, CarSample, HIGH_POINT_M, car_bins, car_sample};
+pub use cars::{
+    BoxFit, CAR_EDGES_M, CarBin, CarSample, END_ZONE_M, FIT_MIN_POINTS, FIT_REACH_M, HIGH_POINT_M, box_fit, car_bins,
+    car_sample,
+};
 pub use clusters::{CAR_SIZED, CLUSTER_CELL_M, CLUSTER_MIN_POINTS, Cluster, clusters};
 pub use compare::{ComparisonRow, RealismComparison};
 pub use ground::{GROUND_BAND_M, GROUND_CELL_M, GroundGrid};

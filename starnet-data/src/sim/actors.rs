@@ -1,9 +1,10 @@
 //! The labelled objects of the simulated world, built from parts so that LiDAR returns fill
 //! a box the way they do on real objects: a car is wheels, a body and a cabin with windows
 //! and number plates; a pedestrian is legs, torso, arms and head; a cyclist a bike and a
-//! rider. The labelled box is the tight box of the parts, computed from them.
+//! rider. The labelled box is the tight box of the parts, computed from them, grown for
+//! vehicles by an annotator's margin ([`super::AnnotationMargin`]).
 //!
-//! Sizes follow the KITTI statistics of `kitti-format.md` §2 (mean ± sd per class).
+//! Labelled sizes follow the KITTI statistics of `kitti-format.md` §2 (mean ± sd per class).
 
 use super::{Shape, Surface};
 use crate::kitti::ObjectClass;
@@ -71,7 +72,14 @@ fn car_like(l: f32, w: f32, h: f32, cabin: f32, paint: f32) -> Vec<Part> {
             parts.push(cuboid([x - 0.32, y - 0.1, 0.0], [x + 0.32, y + 0.1, 0.64], tyre));
         }
     }
-    parts.push(cuboid([-hl, -hw, 0.22], [hl, hw, belt], paint));
+    // The body's ends are rounded: a core that stops `nose` short of each end, capped by a
+    // half-ellipsoid. Real bumpers curve back at the corners and hoods ramp down to them: the
+    // returns within 0.6 m of a car's near end lie a median 0.16–0.23 m behind its box's end
+    // on `kitti-real-dev` at 10–40 m, 0.01 m on a flat end face, 0.16 m on these
+    // (`starnet compare-data`, "depth of the end's returns").
+    let ends = RoundedEnds::new(l, w, 0.22, belt);
+    parts.push(cuboid([-hl + ends.nose, -hw, 0.22], [hl - ends.nose, hw, belt], paint));
+    parts.extend(ends.caps(paint));
     let (c0, c1) = (-hl + 0.12 * l, -hl + (0.12 + cabin) * l);
     // The windscreen and the rear window slope (runs of 0.7 m and 0.35 m from belt to roof), as
     // three steps each: no car has a vertical glass face over its hood.
@@ -94,19 +102,58 @@ fn car_like(l: f32, w: f32, h: f32, cabin: f32, paint: f32) -> Vec<Part> {
     // Plates and the lamps beside them are retro-reflective: the brightest returns of a car.
     let lamp = (belt - 0.18).max(0.3);
     for sx in [-1.0f32, 1.0] {
-        let face = [sx * hl - 0.01, sx * hl];
-        let (x0, x1) = (face[0].min(face[1]), face[0].max(face[1]));
-        parts.push(cuboid([x0, -0.26, 0.35], [x1, 0.26, 0.47], Surface::retro(0.9)));
+        parts.push(ends.on_surface(sx, [-0.26, 0.26], [0.35, 0.47], Surface::retro(0.9)));
         for sy in [-1.0f32, 1.0] {
             let y = sy * (hw - 0.2);
-            parts.push(cuboid(
-                [x0, y - 0.15, lamp],
-                [x1, y + 0.15, lamp + 0.18],
-                Surface::retro(0.7),
-            ));
+            parts.push(ends.on_surface(sx, [y - 0.15, y + 0.15], [lamp, lamp + 0.18], Surface::retro(0.7)));
         }
     }
     parts
+}
+
+/// The rounded ends of a car's body between heights `z0` and `z1`: half-ellipsoids of depth
+/// `nose` on a core that stops `nose` short of each end.
+struct RoundedEnds {
+    half_length: f32,
+    half_width: f32,
+    nose: f32,
+    z: [f32; 2],
+}
+
+impl RoundedEnds {
+    fn new(l: f32, w: f32, z0: f32, z1: f32) -> Self {
+        Self {
+            half_length: 0.5 * l,
+            half_width: 0.5 * w,
+            nose: 0.4f32.min(0.1 * l),
+            z: [z0, z1],
+        }
+    }
+
+    /// The two caps.
+    fn caps(&self, surface: Surface) -> [Part; 2] {
+        let zc = 0.5 * (self.z[0] + self.z[1]);
+        let radii = [self.nose, self.half_width, 0.5 * (self.z[1] - self.z[0])];
+        [-1.0f32, 1.0].map(|sx| {
+            let c = [sx * (self.half_length - self.nose), 0.0, zc];
+            (Shape::Ellipsoid { c, radii, heading: 0.0 }, surface)
+        })
+    }
+
+    /// How far an end reaches along the length at `(y, z)` (either end: they are mirror
+    /// images): the cap's surface, or the core's end face beyond the cap.
+    fn reach(&self, y: f32, z: f32) -> f32 {
+        let (zc, rz) = (0.5 * (self.z[0] + self.z[1]), 0.5 * (self.z[1] - self.z[0]));
+        let q = 1.0 - (y / self.half_width).powi(2) - ((z - zc) / rz).powi(2);
+        self.half_length - self.nose + self.nose * q.max(0.0).sqrt()
+    }
+
+    /// A 1 cm plate on the end at `sx` (±1) spanning `y` and `z`, at the end's surface at its centre.
+    fn on_surface(&self, sx: f32, y: [f32; 2], z: [f32; 2], surface: Surface) -> Part {
+        let x = self.reach(0.5 * (y[0] + y[1]), 0.5 * (z[0] + z[1]));
+        let (x0, x1) = if sx > 0.0 { (x - 0.01, x) } else { (-x, -x + 0.01) };
+        cuboid([x0, y[0], z[0]], [x1, y[1], z[1]], surface)
+    }
 }
 
 fn truck(l: f32, w: f32, h: f32, paint: f32) -> Vec<Part> {
@@ -255,6 +302,24 @@ pub fn tight_box(parts: &[Part]) -> ([f32; 3], [f32; 3]) {
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    #[test]
+    fn rounded_ends_reach_the_box_end_only_at_their_tip() {
+        // A 4 m body between 0.22 and 0.82 m: nose 0.4 m, cap centred at 0.52 m, radii 0.4, 0.8, 0.3.
+        let ends = RoundedEnds::new(4.0, 1.6, 0.22, 0.82);
+        let close = |a: f32, b: f32| (a - b).abs() < 1e-5;
+        assert!(close(ends.reach(0.0, 0.52), 2.0), "the tip");
+        // Halfway out across and up: 1 − ¼ − ¼ = ½ of the radius squared.
+        assert!(close(ends.reach(0.4, 0.67), 1.6 + 0.4 * 0.5f32.sqrt()));
+        // Past the cap (a corner): the core's face.
+        assert!(close(ends.reach(0.79, 0.8), 1.6));
+        // A plate sits on the surface at its centre, at either end.
+        let plate = |sx| match ends.on_surface(sx, [-0.2, 0.2], [0.47, 0.57], Surface::retro(0.9)).0 {
+            Shape::Cuboid { c, half, .. } => c[0] + sx * half[0],
+            _ => unreachable!("plates are cuboids"),
+        };
+        assert!(close(plate(1.0), ends.reach(0.0, 0.52)) && close(plate(-1.0), -ends.reach(0.0, 0.52)));
+    }
 
     #[test]
     fn tight_box_matches_the_requested_size() {

@@ -8,6 +8,7 @@
 //! truncation, the 2D box and alpha from projecting through a real KITTI calibration.
 
 mod actors;
+mod annotation;
 mod intensity;
 mod labels;
 mod placement;
@@ -22,6 +23,7 @@ mod synth;
 mod world;
 
 pub use actors::{Part, build_parts, sample_size, size_stats, tight_box};
+pub use annotation::AnnotationMargin;
 pub use intensity::{Finish, IntensityModel, Surface};
 pub use labels::{DONT_CARE_DISTANCE, INVISIBLE_BLOCKED, camera_label, label_frame, occlusion_level};
 pub use raycast::{Primitive, Scan, Terrain, scan};

@@ -5,6 +5,7 @@
 //! Counts are drawn for the camera's side (x > 0, inside the image's field of view) and,
 //! independently, for the rest of the turn, so the 360° sidecar is as busy as the labels.
 
+use super::AnnotationMargin;
 use super::actors::{build_parts, sample_size, tight_box};
 use super::street::Street;
 use super::world::Actor;
@@ -158,7 +159,8 @@ impl<'a> Placer<'a> {
     /// count statistics already allow for it). A drawn distance is kept for ten slots before
     /// another is drawn, so crowded near slots do not push the distances outwards.
     fn place_at(&mut self, class: ObjectClass, front: bool, range: Option<(f32, f32)>, rng: &mut impl Rng) {
-        let size = sample_size(class, rng);
+        let annotation = AnnotationMargin::sample(class, rng);
+        let body = annotation.body(sample_size(class, rng));
         let mut distance = 0.0;
         for attempt in 0..30 {
             if attempt % 10 == 0 {
@@ -175,7 +177,7 @@ impl<'a> Placer<'a> {
             let Some(pose) = self.at_distance(pose, distance, front, rng) else {
                 continue;
             };
-            let parts = build_parts(class, size, rng);
+            let parts = build_parts(class, body, rng);
             let (c, d) = tight_box(&parts);
             let margin = if matches!(
                 class,
@@ -206,6 +208,7 @@ impl<'a> Placer<'a> {
                     class,
                     track_id,
                     parts,
+                    annotation,
                     [pose.x, pose.y],
                     pose.heading,
                     pose.speed,

@@ -4,7 +4,7 @@
 use super::placement::Placer;
 use super::scenery::{Scenery, build_scenery};
 use super::street::{Ground, GroundView, Street};
-use super::{LidarConfig, Part, Primitive, Shape, tight_box};
+use super::{AnnotationMargin, LidarConfig, Part, Primitive, Shape, tight_box};
 use crate::kitti::ObjectClass;
 use crate::{Box3d, wrap_angle};
 use rand::Rng;
@@ -18,7 +18,8 @@ pub struct Actor {
     pub track_id: u32,
     /// Parts in the object's own frame (origin on the ground, x along the heading).
     pub parts: Vec<Part>,
-    /// Tight box of the parts in the object's own frame: centre and `[dx, dy, dz]`.
+    /// The labelled box in the object's own frame: centre and `[dx, dy, dz]` (the tight box of
+    /// the parts grown by the annotator's margin, [`AnnotationMargin`]).
     pub local_box: ([f32; 3], [f32; 3]),
     /// World position at t = 0.
     pub start: [f32; 2],
@@ -31,17 +32,19 @@ pub struct Actor {
 }
 
 impl Actor {
-    /// An actor from its parts and motion.
+    /// An actor from its parts, the margin its label leaves around them, and its motion.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         class: ObjectClass,
         track_id: u32,
         parts: Vec<Part>,
+        margin: AnnotationMargin,
         start: [f32; 2],
         heading: f32,
         speed: f32,
         footprint: Box3d,
     ) -> Self {
-        let local_box = tight_box(&parts);
+        let local_box = margin.label_box(tight_box(&parts));
         Self {
             class,
             track_id,
@@ -110,7 +113,7 @@ pub struct World {
 pub struct Moment {
     /// Every solid, actors' parts tagged with the actor index.
     pub prims: Vec<Primitive>,
-    /// The actors' tight boxes, indexed like [`World::actors`].
+    /// The actors' labelled boxes, indexed like [`World::actors`].
     pub boxes: Vec<Box3d>,
     /// Ego (sensor) pose in the world frame: `[x, y, z, yaw]`.
     pub pose: [f32; 4],
@@ -221,9 +224,11 @@ mod tests {
         use super::super::Terrain;
         assert!((view.height(0.0, 0.0) + 1.73).abs() < 1e-4);
         for (a, b) in w.actors.iter().zip(&m.boxes) {
-            let p = a.pose(0.0, &w.ground);
+            // On the ground; a vehicle's labelled box reaches up to 9 cm under it
+            // (AnnotationMargin).
+            let below = a.pose(0.0, &w.ground)[2] - (b.z - 0.5 * b.dz);
             assert!(
-                (b.z - 0.5 * b.dz - p[2]).abs() < 0.02,
+                (-0.02..0.02 + 0.09).contains(&below),
                 "{:?} stands on the ground",
                 a.class
             );
