@@ -48,14 +48,16 @@ fn sequences_with_previous_frame_centers() {
     assert_eq!(table.lines().count(), 2 + 5, "{table}");
     assert_eq!(out.matches("16 centers, 8 from t - 1").count(), 1, "{out}");
     assert!(
-        table.contains("| 32 | 16 | 16 |") && table.contains("| 16 | 8 | 8 |"),
+        table.contains("| 32 | 16 | 16.0 |") && table.contains("| 16 | 8 | 8.0 |"),
         "{table}"
     );
     assert!(out.contains("32 centers, 16 from t - 1"), "{out}");
     let reports: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("temporal/temporal.json")).unwrap()).unwrap();
-    // Four of the six frames have a previous frame; with K = 8 each gets 8 seeds.
+    // Four of the six frames have a previous frame; with K = 8 each gets 8 seeds (the tiny model
+    // keeps at least three boxes per frame, three seeds each).
     assert_eq!(reports[1]["seeds"]["seeds"].as_u64(), Some(4 * 8));
+    assert_eq!(reports[1]["seeds"]["frames"].as_u64(), Some(4));
     assert_eq!(reports[0]["seeds"]["seeds"].as_u64(), Some(0));
     assert!(
         std::fs::read(d.join("temporal/temporal_ap.png"))

@@ -1,6 +1,6 @@
 //! Decoding's last step: per-class greedy non-maximum suppression with oriented 3D IoU
 //! (lingvo `NonMaxSuppression3D`), and the stateful variant of the streaming paper (§3.3),
-//! which also suppresses against the boxes kept in the previous k calls. Optionally each kept
+//! which also suppresses against the boxes kept in the previous k slices of a sweep. Optionally each kept
 //! box is then refined by box voting ([`vote`]; not in the paper, off by default).
 
 use serde::{Deserialize, Serialize};
@@ -48,14 +48,36 @@ pub struct NmsConfig {
 /// a kept box of the same class overlaps them above the class's IoU threshold. Output sorted by
 /// descending score, at most `max_boxes`.
 pub fn nms(dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
-    nms_after(&[], dets, cfg, Precedence::Arrival)
+    nms_after(Earlier::default(), dets, cfg, Precedence::Arrival).kept
 }
 
-/// [`nms`] continuing from boxes kept earlier: `earlier` suppress like kept boxes but are not
+/// What [`nms_after`] knows of the boxes of earlier calls (a sweep's earlier slices).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Earlier<'a> {
+    /// Boxes already emitted: they suppress new boxes (under a [`Precedence`]) but are not
+    /// returned again.
+    pub kept: &'a [Detection],
+    /// Earlier candidates (those above the score threshold), which vote with the new boxes'
+    /// candidates ([`vote`]): the same rule as NMS over both calls' boxes at once.
+    pub candidates: &'a [Detection],
+}
+
+/// What [`nms_after`] decided.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Continued {
+    /// The new boxes kept, best score first, at most `max_boxes`.
+    pub kept: Vec<Detection>,
+    /// Indices into [`Earlier::kept`] of the boxes that suppressed a new candidate: objects
+    /// still in view.
+    pub suppressors: Vec<usize>,
+}
+
+/// [`nms`] continuing from earlier calls: `earlier.kept` suppress like kept boxes but are not
 /// returned (nor counted against `max_boxes`). With [`Precedence::Arrival`] an earlier box
 /// suppresses every overlapping new box; with [`Precedence::Score`] only those it outscores
-/// (ties go to the earlier box).
-pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, precedence: Precedence) -> Vec<Detection> {
+/// (ties go to the earlier box). Kept boxes vote with this call's candidates and
+/// `earlier.candidates`.
+pub fn nms_after(earlier: Earlier, dets: &[Detection], cfg: &NmsConfig, precedence: Precedence) -> Continued {
     let mut order: Vec<usize> = (0..dets.len())
         .filter(|&i| {
             cfg.per_class
@@ -65,30 +87,36 @@ pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, pre
         .collect();
     order.sort_by(|&i, &j| dets[j].score.total_cmp(&dets[i].score).then(i.cmp(&j)));
     let mut kept: Vec<Detection> = Vec::new();
+    let mut suppressors = Vec::new();
     for &i in &order {
         if kept.len() == cfg.max_boxes {
             break;
         }
         let d = dets[i];
         let thr = cfg.per_class[d.class].iou;
-        let outranks = |e: &&Detection| precedence == Precedence::Arrival || e.score >= d.score;
-        if earlier
-            .iter()
-            .filter(outranks)
-            .chain(&kept)
-            .all(|k| k.class != d.class || iou_3d(&k.b, &d.b) <= thr)
-        {
+        let clash = |k: &Detection| k.class == d.class && iou_3d(&k.b, &d.b) > thr;
+        let outranks = |e: &Detection| precedence == Precedence::Arrival || e.score >= d.score;
+        let before = suppressors.len();
+        suppressors.extend((0..earlier.kept.len()).filter(|&e| outranks(&earlier.kept[e]) && clash(&earlier.kept[e])));
+        if suppressors.len() == before && !kept.iter().any(clash) {
             kept.push(d);
         }
     }
+    suppressors.sort_unstable();
+    suppressors.dedup();
     // Voting reads the selected boxes, so it runs after every suppression decision is made.
+    let voters: Vec<Detection> = order
+        .iter()
+        .map(|&i| dets[i])
+        .chain(earlier.candidates.iter().copied())
+        .collect();
     for k in &mut kept {
         if let Some(min_iou) = cfg.per_class[k.class].vote_iou {
-            let same_class: Vec<Detection> = order.iter().map(|&i| dets[i]).filter(|d| d.class == k.class).collect();
+            let same_class: Vec<Detection> = voters.iter().copied().filter(|d| d.class == k.class).collect();
             k.b = vote(k, &same_class, min_iou);
         }
     }
-    kept
+    Continued { kept, suppressors }
 }
 
 /// Box voting (Gidaris & Komodakis, ICCV 2015): the score-weighted mean of the `candidates`
@@ -139,45 +167,195 @@ pub enum Precedence {
     Arrival,
 }
 
-/// NMS that remembers the boxes it kept in its last `k` calls and suppresses new boxes that
-/// overlap them (for the slices of a streaming sweep), under a [`Precedence`]. `reset` starts a
-/// new sweep.
+/// When stateful NMS emits a box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Emission {
+    /// Every box as soon as its slice is done (the paper): a box whose object runs on into
+    /// the next slice is decided from this slice's view alone.
+    #[default]
+    Immediate,
+    /// A box that the next slice's boxes could still overlap ([`StatefulNms::step_holding`]'s
+    /// `settled` says which) waits for that slice and is decided with its candidates, as global
+    /// NMS would decide it; the others at once. Costs the waiting boxes one slice of latency.
+    Settled,
+}
+
+/// What stateful NMS remembers of one slice.
+#[derive(Debug, Clone, Default)]
+struct SliceMemory {
+    /// Its emitted boxes, and the earlier boxes that suppressed one of its candidates.
+    kept: Vec<Detection>,
+    /// Its candidates above the score threshold (voters).
+    candidates: Vec<Detection>,
+}
+
+/// NMS over the slices of a streaming sweep (the streaming paper, §3.3): a slice's boxes are
+/// also suppressed by the boxes kept in the previous `k` slices (under a [`Precedence`]), and
+/// vote with those slices' candidates. A remembered box that suppresses a new candidate is
+/// remembered with the new slice too, so an object that spans more than k + 1 slices is still
+/// reported once; [`Self::step_last`] also compares the sweep's last slice with its first, the
+/// two sides of the seam where the sweep starts. [`Self::step_holding`] lets a box wait one
+/// slice ([`Emission::Settled`]). `reset` starts a new sweep.
 #[derive(Debug, Clone)]
 pub struct StatefulNms {
     k: usize,
     precedence: Precedence,
-    history: VecDeque<Vec<Detection>>,
+    history: VecDeque<SliceMemory>,
+    first: Option<SliceMemory>,
+    /// The previous slice's candidates, while one of its boxes waits.
+    pending: Vec<Detection>,
+    seen: usize,
 }
 
 impl StatefulNms {
-    /// Remembers the last `k` calls (the streaming paper uses k = 1).
+    /// Remembers the last `k` slices (the streaming paper uses k = 1); `k = 0` is NMS within
+    /// each slice.
     pub fn new(k: usize, precedence: Precedence) -> Self {
         Self {
             k,
             precedence,
             history: VecDeque::new(),
+            first: None,
+            pending: Vec::new(),
+            seen: 0,
         }
     }
 
-    /// Forgets every previous call.
+    /// Forgets every previous slice.
     pub fn reset(&mut self) {
         self.history.clear();
+        self.first = None;
+        self.pending.clear();
+        self.seen = 0;
     }
 
-    /// Greedy NMS of `dets` continuing from the remembered boxes ([`nms_after`]): a box is
-    /// dropped when a newly kept box of its class, or a remembered one that takes precedence,
-    /// overlaps it (a dropped box suppresses nothing).
+    /// Greedy NMS of a slice's `dets` continuing from the remembered slices ([`nms_after`]): a
+    /// box is dropped when a newly kept box of its class, or a remembered one that takes
+    /// precedence, overlaps it (a dropped box suppresses nothing). Returns the boxes to emit:
+    /// all it keeps.
     pub fn step(&mut self, dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
-        let remembered: Vec<Detection> = self.history.iter().flatten().copied().collect();
-        let kept = nms_after(&remembered, dets, cfg, self.precedence);
+        self.step_after(dets, cfg, None, &|_| true)
+    }
+
+    /// [`Self::step`], but a kept box that is not `settled` (the next slice's boxes could still
+    /// overlap it) waits: the next call decides it again among that slice's candidates, and
+    /// emits whatever it then keeps of this slice's. With `k = 0` nothing would suppress the
+    /// waiting boxes' candidates once emitted, so every box is settled.
+    pub fn step_holding(
+        &mut self,
+        dets: &[Detection],
+        cfg: &NmsConfig,
+        settled: &dyn Fn(&Detection) -> bool,
+    ) -> Vec<Detection> {
+        self.step_after(dets, cfg, None, settled)
+    }
+
+    /// [`Self::step`] for the sweep's last slice: it also continues from the sweep's first
+    /// slice, across the seam where the sweep began, emits every box still waiting, then the
+    /// sweep is forgotten.
+    pub fn step_last(&mut self, dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
+        // The first slice is still remembered when the sweep has at most k + 1 slices.
+        let first = self.first.take().filter(|_| self.k > 0 && self.seen > self.k);
+        let out = self.step_after(dets, cfg, first, &|_| true);
+        self.reset();
+        out
+    }
+
+    fn step_after(
+        &mut self,
+        dets: &[Detection],
+        cfg: &NmsConfig,
+        also: Option<SliceMemory>,
+        settled: &dyn Fn(&Detection) -> bool,
+    ) -> Vec<Detection> {
+        let pending = std::mem::take(&mut self.pending);
+        let remembered: Vec<Detection> = self
+            .history
+            .iter()
+            .chain(&also)
+            .flat_map(|m| m.kept.iter().copied())
+            .collect();
+        // Selection first, voting after, so that a box is recognised as the pending one it is.
+        let mut select = cfg.clone();
+        select.per_class.iter_mut().for_each(|c| c.vote_iou = None);
+        let pool: Vec<Detection> = pending.iter().chain(dets).copied().collect();
+        let earlier = Earlier {
+            kept: &remembered,
+            candidates: &[],
+        };
+        let Continued { kept, suppressors } = nms_after(earlier, &pool, &select, self.precedence);
+        let (emit, wait): (Vec<Detection>, Vec<Detection>) = kept
+            .into_iter()
+            .partition(|d| self.k == 0 || pending.contains(d) || settled(d));
+        let candidates: Vec<Detection> = dets
+            .iter()
+            .filter(|d| cfg.per_class.get(d.class).is_some_and(|c| d.score >= c.score))
+            .copied()
+            .collect();
+        // The pending candidates are the last remembered slice's: counted once.
+        let skip_last = usize::from(!pending.is_empty());
+        let voters: Vec<Detection> = self
+            .history
+            .iter()
+            .rev()
+            .skip(skip_last)
+            .chain(&also)
+            .flat_map(|m| m.candidates.iter().copied())
+            .chain(
+                pool.iter()
+                    .filter(|d| cfg.per_class.get(d.class).is_some_and(|c| d.score >= c.score))
+                    .copied(),
+            )
+            .collect();
+        let emitted: Vec<Detection> = emit.into_iter().map(|k| voted(k, &voters, cfg)).collect();
+        if !wait.is_empty() {
+            self.pending = candidates.clone();
+        }
+        self.remember(SliceMemory {
+            kept: emitted
+                .iter()
+                .copied()
+                .chain(still_seen(&remembered, &suppressors))
+                .collect(),
+            candidates,
+        });
+        emitted
+    }
+
+    fn remember(&mut self, memory: SliceMemory) {
+        if self.seen == 0 {
+            self.first = Some(memory.clone());
+        }
+        self.seen += 1;
         if self.k > 0 {
-            self.history.push_back(kept.clone());
+            self.history.push_back(memory);
             while self.history.len() > self.k {
                 self.history.pop_front();
             }
         }
-        kept
     }
+}
+
+/// `kept` after box voting with `voters` ([`vote`]), when its class votes.
+fn voted(mut kept: Detection, voters: &[Detection], cfg: &NmsConfig) -> Detection {
+    if let Some(min_iou) = cfg.per_class[kept.class].vote_iou {
+        let same_class: Vec<Detection> = voters.iter().copied().filter(|d| d.class == kept.class).collect();
+        kept.b = vote(&kept, &same_class, min_iou);
+    }
+    kept
+}
+
+/// The remembered boxes at `suppressors`, each once (a box remembered from two slices
+/// suppresses as one).
+fn still_seen(remembered: &[Detection], suppressors: &[usize]) -> Vec<Detection> {
+    let mut out: Vec<Detection> = Vec::new();
+    for &i in suppressors {
+        if !out.contains(&remembered[i]) {
+            out.push(remembered[i]);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -268,12 +446,82 @@ mod tests {
         assert_eq!(s.step(&[det(0.0, 0, 0.9)], &c).len(), 1);
         // The same object again in the next slice, even with a higher score: suppressed.
         assert!(s.step(&[det(0.2, 0, 0.95)], &c).is_empty());
-        // k = 1: the slice before last is forgotten (the last call kept nothing).
+        // k = 1, but the box suppressed something in the last slice, so it is still in view.
+        assert!(s.step(&[det(0.4, 0, 0.95)], &c).is_empty());
+        // A slice without it: then it is forgotten.
+        assert_eq!(s.step(&[det(30.0, 0, 0.5)], &c).len(), 1);
         assert_eq!(s.step(&[det(0.2, 0, 0.95)], &c).len(), 1);
         s.reset();
         assert_eq!(s.step(&[det(0.2, 0, 0.95)], &c).len(), 1);
         // Other classes are not suppressed.
         assert_eq!(s.step(&[det(0.2, 1, 0.95)], &c).len(), 1);
+    }
+
+    #[test]
+    fn an_object_across_many_slices_is_reported_once() {
+        let c = cfg(10);
+        // An object seen by six slices of k = 1, each view of it a little further along: every
+        // view overlaps the first (IoU 0.23 at the last) but not always the one it follows.
+        let views: Vec<Detection> = (0..6).map(|s| det(s as f32 * 0.5, 0, 0.5 + 0.05 * s as f32)).collect();
+        assert!(iou_3d(&views[0].b, &views[5].b) > 0.1);
+        let mut s = StatefulNms::new(1, Precedence::Arrival);
+        let emitted: Vec<Detection> = views.iter().flat_map(|v| s.step(&[*v], &c)).collect();
+        assert_eq!(emitted, [views[0]]);
+        // Without the refresh (memory of emitted boxes only), slice 2 would emit it again.
+        let mut plain = StatefulNms::new(1, Precedence::Arrival);
+        plain.step(&views[..1], &c);
+        plain.step(&views[1..2], &c);
+        plain.history.back_mut().expect("slice 1").kept.clear();
+        assert_eq!(plain.step(&views[2..3], &c), [views[2]]);
+    }
+
+    #[test]
+    fn the_last_slice_meets_the_first_across_the_seam() {
+        let c = cfg(10);
+        let slices = [
+            vec![det(0.0, 0, 0.9)],
+            vec![det(20.0, 0, 0.8)],
+            vec![det(40.0, 0, 0.7)],
+            vec![det(0.5, 0, 0.6)],
+        ];
+        let run = |last: bool| {
+            let mut s = StatefulNms::new(1, Precedence::Arrival);
+            let mut out: Vec<Detection> = slices[..3].iter().flat_map(|d| s.step(d, &c)).collect();
+            out.extend(if last {
+                s.step_last(&slices[3], &c)
+            } else {
+                s.step(&slices[3], &c)
+            });
+            out.len()
+        };
+        assert_eq!(run(false), 4, "slice 3 does not remember slice 0");
+        assert_eq!(run(true), 3, "across the seam it does");
+        // The sweep is forgotten after its last slice.
+        let mut s = StatefulNms::new(1, Precedence::Arrival);
+        s.step_last(&slices[0], &c);
+        assert_eq!(s.step(&slices[3], &c).len(), 1);
+    }
+
+    #[test]
+    fn stateful_nms_votes_with_the_remembered_candidates() {
+        let mut c = cfg(10);
+        c.per_class[0].vote_iou = Some(0.5);
+        // Score precedence: slice 1's box outscores slice 0's and is emitted; both slices'
+        // candidates vote, as they would in NMS over the two slices together.
+        let slice0 = [det(0.0, 0, 0.3), det(0.4, 0, 0.25)];
+        let slice1 = [det(0.8, 0, 0.9)];
+        let mut s = StatefulNms::new(1, Precedence::Score);
+        s.step(&slice0, &c);
+        let got = s.step(&slice1, &c);
+        let together: Vec<Detection> = slice0.iter().chain(&slice1).copied().collect();
+        let want = vote(&slice1[0], &together, 0.5);
+        assert_eq!(got.len(), 1);
+        assert!(
+            (got[0].b.x - want.x).abs() < 1e-6 && want.x < 0.8,
+            "{} vs {}",
+            got[0].b.x,
+            want.x
+        );
     }
 
     #[test]
@@ -289,6 +537,63 @@ mod tests {
         assert_eq!(score.step(&[whole], &c), [whole]);
         // Slice 2 sees it again, also at 0.9: a tie goes to the remembered box.
         assert!(score.step(&[det(0.8, 0, 0.9)], &c).is_empty());
+    }
+
+    #[test]
+    fn a_box_the_next_slice_may_overlap_waits_for_it() {
+        let c = cfg(10);
+        let edge = det(0.0, 0, 0.5); // slice 0 sees the object's edge, near the border
+        let whole = det(0.4, 0, 0.9); // slice 1 sees it whole
+        let other = det(-20.0, 0, 0.6); // far from the border: settled
+        // The edge box reaches the border; the whole view and the far box do not.
+        let settled = |d: &Detection| d.b.x < -10.0 || d.b.x > 0.3;
+        for precedence in [Precedence::Arrival, Precedence::Score] {
+            let mut s = StatefulNms::new(1, precedence);
+            assert_eq!(
+                s.step_holding(&[edge, other], &c, &settled),
+                [other],
+                "the edge box waits"
+            );
+            // Decided with slice 1's candidates: the better view wins, as global NMS would have it.
+            assert_eq!(s.step_holding(&[whole], &c, &settled), [whole]);
+            assert!(s.step_holding(&[], &c, &settled).is_empty(), "nothing left waiting");
+        }
+        // A waiting box that nothing outscores is emitted with the next slice.
+        let mut s = StatefulNms::new(1, Precedence::Score);
+        assert!(s.step_holding(&[edge], &c, &|_| false).is_empty());
+        assert_eq!(s.step_holding(&[det(30.0, 0, 0.4)], &c, &|_| false), [edge]);
+        // Without memory nothing could suppress a waiting box's candidates later: no waiting.
+        let mut s = StatefulNms::new(0, Precedence::Score);
+        assert_eq!(s.step_holding(&[edge], &c, &|_| false), [edge]);
+    }
+
+    proptest::proptest! {
+        /// Two slices whose boxes all wait: the second slice decides them together, which is
+        /// global NMS over the sweep, votes included.
+        #[test]
+        fn waiting_for_the_last_slice_is_global_nms(
+            raw in proptest::collection::vec((0.0f32..20.0, 0.0f32..3.0, 0usize..2, 0.2f32..1.0, proptest::bool::ANY), 1..30),
+        ) {
+            let mut c = cfg(1000);
+            c.per_class[0].vote_iou = Some(0.3);
+            let mut slices = [Vec::new(), Vec::new()];
+            for &(x, y, class, score, second) in &raw {
+                let mut d = det(x, class, score);
+                d.b.y = y;
+                slices[usize::from(second)].push(d);
+            }
+            let mut s = StatefulNms::new(1, Precedence::Score);
+            let mut out = s.step_holding(&slices[0], &c, &|_| false);
+            out.extend(s.step_last(&slices[1], &c));
+            let all: Vec<Detection> = slices.iter().flatten().copied().collect();
+            let (got, want) = (sorted(out), sorted(nms(&all, &c)));
+            proptest::prop_assert_eq!(got.len(), want.len());
+            for (a, b) in got.iter().zip(&want) {
+                // Votes sum their voters in another order: equal up to rounding.
+                let close = a.b.to_array().iter().zip(b.b.to_array()).all(|(p, q)| (p - q).abs() < 1e-4);
+                proptest::prop_assert!(a.score == b.score && a.class == b.class && close, "{:?} vs {:?}", a, b);
+            }
+        }
     }
 
     /// Greedy NMS taking boxes slice by slice (each slice best score first): the oracle of

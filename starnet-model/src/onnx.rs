@@ -261,16 +261,16 @@ pub fn onnx_model(model: &StarNet, cfg: &StarNetConfig) -> Vec<u8> {
     let refs: Vec<&str> = readout.iter().map(String::as_str).collect();
     let cell = g.op("Concat", &refs, &[("axis", Attr::Int(2))]); // [C, 1, cell]
     let cell_shape = g.ints("cell_shape", &[-1, cfg.featurizer.cell_dim() as i64]);
-    let mut cell = g.op("Reshape", &[&cell, &cell_shape], &[]); // [C, cell]
+    let cell = g.op("Reshape", &[&cell, &cell_shape], &[]); // [C, cell]
     // The streaming variant's slices mark repeated centers; the projector's BatchNorm zeroes
-    // their rows, as Burn's masked BatchNorm does.
-    let mut valid = None;
-    if cfg.lstm_hidden.is_some() {
-        let v = g.op("Unsqueeze", &["center_valid", &axis1], &[]); // [C, 1]
-        cell = lstm_step(&w, &mut g, &cell, &v);
-        valid = Some(v);
+    // their rows, as Burn's masked BatchNorm does, and the LSTM's context joins after it.
+    let valid = cfg
+        .lstm_hidden
+        .map(|_| g.op("Unsqueeze", &["center_valid", &axis1], &[])); // [C, 1]
+    let mut x = w.batch_norm(&mut g, &cell, "proj_bn", valid.as_deref());
+    if let Some(v) = &valid {
+        x = lstm_step(&w, &mut g, &x, v);
     }
-    let x = w.batch_norm(&mut g, &cell, "proj_bn", valid.as_deref());
     let shared_size = cfg.shared_size.then(|| w.linear(&mut g, &x, "size_head")); // [C, R·Pr·3]
     let x = w.linear(&mut g, &x, "proj");
     let x = g.op("Relu", &[&x], &[]); // [C, G²·D]
@@ -350,7 +350,7 @@ fn model_proto(g: Graph, io: Io) -> Vec<u8> {
 }
 
 /// The streaming LSTM's step over one slice, as `SliceLstm::forward` with one slice: the mean
-/// of the valid centers' cells drives one LSTM step (Burn's gates: input, forget and output
+/// of the valid centers' normalised cells drives one LSTM step (Burn's gates: input, forget and output
 /// sigmoid, cell tanh; `c' = f·c + i·g`, `h' = o·tanh(c')`) from `state_h` / `state_c`, and its
 /// output, projected back to the cell width, is added to every center's cell. Writes
 /// `state_h_out` and `state_c_out`.

@@ -16,7 +16,7 @@ use starnet_data::settings::{Checked, InvalidSetting, at_least_one, non_negative
 use starnet_model::assign::AssignConfig;
 use starnet_model::backend::DeviceChoice;
 use starnet_model::loss::LossConfig;
-use starnet_model::nms::{ClassNms, NmsConfig, Precedence};
+use starnet_model::nms::{ClassNms, Emission, NmsConfig, Precedence};
 use starnet_model::nn::{FeaturizerConfig, StarNetConfig};
 use std::path::{Path, PathBuf};
 use toml::{Table, Value};
@@ -89,12 +89,17 @@ pub struct StreamSection {
     /// Slice count of the evaluations during and after training of a streaming config.
     pub eval_slices: usize,
     /// Stateful NMS memory k: a slice's boxes are also suppressed by the boxes kept in the
-    /// previous k slices (the paper: 1).
+    /// previous k slices (the paper: 1), a remembered box stays remembered while it suppresses
+    /// something, and the last slice also meets the first ([`starnet_model::nms::StatefulNms`]).
     pub nms_memory: usize,
     /// Which of two overlapping boxes from different slices stateful NMS keeps: `score` (the
     /// more confident, unless the earlier one was already emitted; as NMS over both slices'
     /// boxes) or `arrival` (the earlier one always).
     pub nms_precedence: Precedence,
+    /// When stateful NMS emits a box: `immediate` (the paper: when its slice is done) or
+    /// `settled` (a box whose footprint, grown by half its length, reaches a slice not yet
+    /// delivered waits one slice and is decided with that slice's candidates).
+    pub nms_emission: Emission,
     /// Streaming evaluations count objects and detections within this bird's-eye-view range,
     /// metres (the center pool's reach; `inf`: everything labelled).
     pub eval_range: f32,
@@ -264,6 +269,7 @@ impl Default for ExperimentConfig {
                 eval_slices: 8,
                 nms_memory: 1,
                 nms_precedence: Precedence::Score,
+                nms_emission: Emission::Immediate,
                 eval_range: f32::INFINITY,
                 scan_hz: 10.0,
                 slicing: SliceConfig::default(),

@@ -29,7 +29,7 @@ use starnet_data::io::atomic_write;
 use starnet_data::kitti::ObjectClass;
 use starnet_data::sampling::{AnchorGrid, CenterPoolConfig, CenterZ, GatherMetric, NUM_FEATURES, Sampler, SliceConfig};
 use starnet_model::export::{NamedTensor, named_tensors, write_safetensors};
-use starnet_model::nms::Precedence;
+use starnet_model::nms::{Emission, Precedence};
 use starnet_model::nn::{ModelInput, SliceState, StarNet};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -129,10 +129,14 @@ pub struct StreamingSpec {
     pub eval_slices: usize,
     /// Centers per slice: `ceil(num_centers / n)`, at least 1.
     pub centers_per_slice: &'static str,
-    /// Stateful NMS: a slice's boxes are also suppressed by those kept in the previous k slices.
+    /// Stateful NMS: a slice's boxes are also suppressed by those kept in the previous k slices
+    /// (and by the boxes those suppressed something with, and the last slice by the first's),
+    /// and vote with their candidates ([`starnet_model::nms::StatefulNms`]).
     pub nms_memory: usize,
     /// Which of two overlapping boxes from different slices stateful NMS keeps.
     pub nms_precedence: Precedence,
+    /// When stateful NMS emits a box (immediately, or once the next slice cannot overlap it).
+    pub nms_emission: Emission,
     /// The LSTM's tensors in `model.safetensors`.
     pub lstm_weights: &'static str,
 }
@@ -154,6 +158,7 @@ impl StreamingSpec {
             centers_per_slice: "ceil(num_centers / n), at least 1",
             nms_memory: cfg.stream.nms_memory,
             nms_precedence: cfg.stream.nms_precedence,
+            nms_emission: cfg.stream.nms_emission,
             lstm_weights: "lstm.lstm.{input,forget,output,cell}_gate.{input,hidden}_transform.{weight [H, D | H], \
                            bias [H]} (gate = sigmoid, sigmoid, sigmoid, tanh of x·Wxᵀ + bx + h·Whᵀ + bh; c' = \
                            f·c + i·g, h' = o·tanh(c')); torch.nn.LSTM's weight_ih_l0 stacks the input \

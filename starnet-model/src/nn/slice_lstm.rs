@@ -1,11 +1,12 @@
 //! The streaming model's recurrent bottleneck (the streaming-detection paper, §3.4): per slice,
-//! the mean of its centers' cell features feeds a single-layer LSTM whose output, projected
-//! back to the cell width, is added to every center's cell feature of that slice. The state
-//! runs across the slices of one sweep, so a slice sees a summary of the sweep so far.
+//! the mean of its centers' cell features (as the projector's BatchNorm leaves them) feeds a
+//! single-layer LSTM whose output, projected back to the cell width, is added to every center's
+//! normalised cell feature of that slice. The state runs across the slices of one sweep, so a
+//! slice sees a summary of the sweep so far. The projection starts at zero, so an untrained
+//! LSTM leaves the stateless model as it is (every slice starts without a random offset).
 
-use super::linear;
 use burn::module::Module;
-use burn::nn::{Linear, Lstm, LstmConfig, LstmState};
+use burn::nn::{Initializer, Linear, LinearConfig, Lstm, LstmConfig, LstmState};
 use burn::prelude::*;
 
 /// Configuration of [`SliceLstm`].
@@ -23,9 +24,16 @@ impl SliceLstmConfig {
     pub fn init(&self, device: &Device) -> SliceLstm {
         SliceLstm {
             lstm: LstmConfig::new(self.d_cell, self.d_hidden, true).init(device),
-            out: linear(self.d_hidden, self.d_cell, true, device),
+            out: zero_linear(self.d_hidden, self.d_cell, device),
         }
     }
+}
+
+/// A Linear whose weight and bias start at zero.
+fn zero_linear(d_in: usize, d_out: usize, device: &Device) -> Linear {
+    LinearConfig::new(d_in, d_out)
+        .with_initializer(Initializer::Zeros)
+        .init(device)
 }
 
 /// LSTM over slices, with an output projection to the cell width.
@@ -40,7 +48,7 @@ pub type SliceState = LstmState<2>;
 
 impl SliceLstm {
     /// # Shapes
-    /// - `cells`: `[B, S, C, D]` cell features of S consecutive slices of B sweeps
+    /// - `cells`: `[B, S, C, D]` normalised cell features of S consecutive slices of B sweeps
     /// - `valid`: `[B, S, C]` 1.0 for real centers (repeats pad a slice's small pool)
     /// - `state`: after the sweeps' earlier slices, `None` at a sweep's start
     /// - output: `[B, S, 1, D]` to add to every center of each slice, and the state after slice S

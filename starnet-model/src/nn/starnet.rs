@@ -177,33 +177,34 @@ impl StarNet {
         state: Option<SliceState>,
     ) -> (ModelOutput, Option<SliceState>) {
         let [bs, c, _, _] = input.points.dims();
-        let mut cell = self.featurizer.forward(input.points, input.mask); // [BS, C, cell]
+        let cell = self.featurizer.forward(input.points, input.mask); // [BS, C, cell]
         let [_, _, d_cell] = cell.dims();
+        let valid = input.center_valid.reshape([bs * c, 1]);
+        let mut rows = self.proj_bn.forward(cell.reshape([bs * c, d_cell]), valid.clone()); // [BS·C, cell]
         let mut next = None;
         if let Some(lstm) = &self.lstm {
+            // The context joins after the BatchNorm: before it, the batch statistics of a
+            // training step (one n) absorb the per-slice offset, while evaluation's running
+            // statistics, averaged over every n, do not.
             let b = bs / slices;
             let (ctx, st) = lstm.forward(
-                cell.clone().reshape([b, slices, c, d_cell]),
-                input.center_valid.clone().reshape([b, slices, c]),
+                rows.clone().reshape([b, slices, c, d_cell]),
+                valid.reshape([b, slices, c]),
                 state,
             ); // [B, S, 1, cell]
-            cell = cell + ctx.reshape([bs, 1, d_cell]);
+            rows = (rows.reshape([bs, c, d_cell]) + ctx.reshape([bs, 1, d_cell])).reshape([bs * c, d_cell]);
             next = Some(st);
         }
-        (self.head(cell, input.center_valid), next)
+        (self.head(rows, bs, c), next)
     }
 
-    /// The projector and heads.
+    /// The projector (after its BatchNorm) and heads.
     ///
     /// # Shapes
-    /// - cell: `[B, C, cell]`, center_valid `[B, C]`
+    /// - rows: `[B·C, cell]`, the projector's normalised input
     /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`, dir_logits
     ///   `[B, C, A, 2]`
-    fn head(&self, cell: Tensor<3>, center_valid: Tensor<2>) -> ModelOutput {
-        let [b, c, d_cell] = cell.dims();
-        let rows = self
-            .proj_bn
-            .forward(cell.reshape([b * c, d_cell]), center_valid.reshape([b * c, 1]));
+    fn head(&self, rows: Tensor<2>, b: usize, c: usize) -> ModelOutput {
         let size = self.size_head.as_ref().map(|h| h.forward(rows.clone())); // [BC, R·Pr·3]
         let offsets = self.proj.weight.dims()[1] / self.d_offset;
         let OffsetOutputs { cls, reg, dir } = self
@@ -495,7 +496,8 @@ mod tests {
         let dev = default_device();
         let mut cfg = StarNetConfig::small_car();
         cfg.lstm_hidden = Some(16);
-        let model = cfg.init(&dev);
+        // Every weight non-zero: the context projection starts at zero (see the test below).
+        let model = crate::export::load_weights(cfg.init(&dev), &randomised(&cfg.init(&dev))).expect("same layout");
         assert!(model.has_lstm() && !StarNetConfig::small_car().init(&dev).has_lstm());
         // Two sweeps of four slices, three centers each: rows sweep-major.
         let x = input(&dev, 8, 3, 8, 6, 7);
@@ -541,5 +543,32 @@ mod tests {
                 sw.cls_logits.slice_dim(0, 5..6)
             ) < 1e-5
         );
+    }
+
+    #[test]
+    fn an_untrained_lstm_leaves_the_stateless_model_as_it_is() {
+        let dev = default_device();
+        let plain_cfg = StarNetConfig::small_car();
+        let lstm_cfg = StarNetConfig::small_car().with_lstm_hidden(Some(16));
+        // Every weight randomised but the context projection's, as initialised; the stateless
+        // model takes the same weights (its loader reads the tensors it has).
+        let init = lstm_cfg.init(&dev);
+        let fresh = crate::export::named_tensors(&init);
+        let mut weights = randomised(&init);
+        for t in fresh.into_iter().filter(|t| t.name.starts_with("lstm.out")) {
+            assert!(t.data.iter().all(|&v| v == 0.0), "{} starts at zero", t.name);
+            weights.insert(t.name.clone(), t);
+        }
+        let plain = crate::export::load_weights(plain_cfg.init(&dev), &weights).expect("a subset of the layout");
+        let lstm = crate::export::load_weights(init, &weights).expect("same layout");
+        let x = input(&dev, 4, 5, 8, 6, 9);
+        let (a, b) = (
+            plain.forward_slices(x.clone(), 2, None).0,
+            lstm.forward_slices(x, 2, None).0,
+        );
+        assert!(max_diff(a.cls_logits.clone(), b.cls_logits) < 1e-6);
+        assert!(max_diff(a.box_residuals, b.box_residuals) < 1e-6);
+        // Not vacuous: the logits vary across centers.
+        assert!(a.cls_logits.clone().max().into_scalar::<f32>() - a.cls_logits.min().into_scalar::<f32>() > 1e-2);
     }
 }

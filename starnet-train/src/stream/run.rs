@@ -8,13 +8,13 @@ use crate::eval::{Scores, to_kitti, waymo_objects};
 use crate::synth::progress_bar;
 use crate::train::EvalReport;
 use serde::{Deserialize, Serialize};
-use starnet_data::Point;
 use starnet_data::kitti::{KittiDataset, LabelSource};
-use starnet_data::sampling::{CenterTarget, centers_per_slice, prepare_slice, slice_points, slice_rng};
+use starnet_data::sampling::{CenterTarget, SliceConfig, centers_per_slice, prepare_slice, slice_points, slice_rng};
 use starnet_data::sim::sub_seed;
 use starnet_data::summary::{mean, quantile};
+use starnet_data::{Box3d, Point};
 use starnet_model::flops::forward_gflop;
-use starnet_model::nms::{Detection, StatefulNms, nms};
+use starnet_model::nms::{Detection, Emission, StatefulNms, nms};
 use starnet_model::nn::StarNet;
 use std::time::Instant;
 
@@ -106,7 +106,14 @@ pub fn stream_sweep(m: &StreamModel, points: &[Point], n: usize, seed: u64) -> S
         );
         let slice = detector.detect_slice(&prepared, state);
         state = slice.state;
-        out.stateful.extend(stateful.step(&slice.raw, &detector.nms));
+        out.stateful.extend(match stream.nms_emission {
+            _ if s + 1 == n => stateful.step_last(&slice.raw, &detector.nms),
+            Emission::Immediate => stateful.step(&slice.raw, &detector.nms),
+            Emission::Settled => {
+                let settled = |d: &Detection| reaches_no_later_slice(&d.b, s, n, &stream.slicing);
+                stateful.step_holding(&slice.raw, &detector.nms, &settled)
+            }
+        });
         out.slice_ms.push(start.elapsed().as_secs_f64() * 1e3);
         let local = nms(&slice.raw, &detector.nms);
         out.localized.extend_from_slice(&local);
@@ -115,6 +122,16 @@ pub fn stream_sweep(m: &StreamModel, points: &[Point], n: usize, seed: u64) -> S
     }
     out.global = nms(&raw_all, &detector.nms);
     out
+}
+
+/// Whether no box of a slice after `s` (of `n`) can overlap `b`: its footprint grown by half
+/// its length (how far a later slice's box reaches back across the border) lies in slices up to
+/// `s`. Past the sweep's start (slice 0 seen from the last slices) counts as later.
+fn reaches_no_later_slice(b: &Box3d, s: usize, n: usize, slicing: &SliceConfig) -> bool {
+    b.grown(b.dx.max(b.dy) / 2.0)
+        .corners_bev()
+        .iter()
+        .all(|c| slicing.slice_of(c[0], c[1], n) <= s)
 }
 
 /// The ground truth of a streaming evaluation: per frame id, its labelled objects (with their
@@ -477,6 +494,25 @@ mod tests {
         missing.as_array_mut().unwrap().remove(1);
         let err = serde_json::from_value::<ModeReports>(missing).unwrap_err().to_string();
         assert!(err.contains("stateful"), "{err}");
+    }
+
+    #[test]
+    fn a_box_is_settled_when_no_later_slice_reaches_it() {
+        // Four slices, counter-clockwise from azimuth 0: slice 0 is the first quadrant.
+        let slicing = SliceConfig {
+            start_azimuth_deg: 0.0,
+            clockwise: false,
+            ..SliceConfig::default()
+        };
+        let car = |x: f32, y: f32| Box3d::new(x, y, -1.0, 4.0, 1.6, 1.5, 0.0);
+        // At 45° and 20 m, grown by 2 m: inside slice 0.
+        assert!(reaches_no_later_slice(&car(14.0, 14.0), 0, 4, &slicing));
+        // Near the border with slice 1 (the +y axis): it waits, until slice 1 is done.
+        assert!(!reaches_no_later_slice(&car(2.0, 20.0), 0, 4, &slicing));
+        assert!(reaches_no_later_slice(&car(2.0, 20.0), 1, 4, &slicing));
+        // Just past the sweep's start (slice 0 near the +x axis, reaching back below it): the
+        // last slice lies behind the start, so it is not settled before then.
+        assert!(!reaches_no_later_slice(&car(20.0, 1.0), 0, 4, &slicing));
     }
 
     #[test]

@@ -14,20 +14,9 @@ use starnet_data::geometry::Pose;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::Frame;
 use starnet_data::sampling::{Centers, PreparedFrame, center_pool};
-use starnet_model::nms::{Detection, NmsConfig, nms};
+use starnet_model::nms::Detection;
 use std::path::Path;
 use std::time::Instant;
-
-/// Detections down to this score may seed the next frame (the paper takes the K best, and K
-/// reaches hundreds: far more than pass the final score threshold).
-pub const SEED_MIN_SCORE: f32 = 0.05;
-
-/// The boxes that may seed the next frame: NMS over the best few thousand raw boxes.
-fn seed_candidates(mut raw: Vec<Detection>, cfg: &NmsConfig) -> Vec<Detection> {
-    raw.sort_by(|a, b| b.score.total_cmp(&a.score));
-    raw.truncate(4096);
-    nms(&raw, cfg)
-}
 
 /// One (N, K) evaluation over the sequences.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -36,7 +25,9 @@ pub struct TemporalReport {
     pub num_centers: usize,
     /// How K was asked for.
     pub prev: PrevCenters,
-    /// K: centers taken from the previous frame's detections (fewer when it had fewer).
+    /// K: at most this many centers are seeded from the previous frame's detections (a frame
+    /// takes [`super::SEEDS_PER_DETECTION`] per detection, up to K; [`SeedStats::per_frame`]
+    /// is how many it took).
     pub prev_centers: usize,
     /// The evaluation (every frame of every sequence; the first frames have no seeds).
     pub report: EvalReport,
@@ -44,10 +35,11 @@ pub struct TemporalReport {
     pub seeds: SeedStats,
 }
 
-/// Runs every sequence frame by frame: frame t's first K centers are the K best detections of
-/// frame t − 1 (after NMS, scores down to [`SEED_MIN_SCORE`]) moved into frame t
+/// Runs every sequence frame by frame: frame t's first centers are seeds from frame t − 1's
+/// detections ([`temporal_seeds`]: up to K, a few per detection, best first) moved into frame t
 /// (`Pose::between` the two poses) and snapped to the nearest candidate center within the
-/// gathering radius ([`snap_seeds`]), and FPS continues from them up to `budget.num_centers`;
+/// gathering radius ([`snap_seeds`]), and FPS draws the rest up to `budget.num_centers` as it
+/// would without seeds;
 /// the first frame of a sequence has no seeds. Frame `i`
 /// (counting through the sequences) samples from `frame_seed(seed, i)`, as
 /// [`crate::train::evaluate`] does, so K = 0 reproduces it. `detector` is at the budget N.
@@ -64,7 +56,7 @@ pub fn evaluate_sequences(
         .map_or(starnet_data::kitti::LabelSource::Camera, |s| s.dataset.labels());
     let mut scorer = Scorer::new(&detector.classes, labels, None);
     let mut latencies = Vec::new();
-    let (mut corrected, mut uncorrected, mut confident) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut corrected, mut uncorrected, mut seeded_frames) = (Vec::new(), Vec::new(), 0);
     let mut i = 0;
     for seq in sequences {
         let mut previous: Vec<Detection> = Vec::new();
@@ -75,7 +67,7 @@ pub fn evaluate_sequences(
                 0 => Vec::new(),
                 _ => temporal_seeds(&previous, step.k, &Pose::between(&seq.poses[t - 1], &seq.poses[t])),
             };
-            let (prepared, detections, candidates) = step.run(&frame, &moved, frame_seed(seed, i));
+            let (prepared, detections) = step.run(&frame, &moved, frame_seed(seed, i));
             let ms = start.elapsed().as_secs_f64() * 1e3;
             if !moved.is_empty() {
                 let objects: Vec<Box3d> = prepared
@@ -88,15 +80,9 @@ pub fn evaluate_sequences(
                 corrected.extend(seed_distances(&moved, &objects));
                 let unmoved = temporal_seeds(&previous, step.k, &Pose::IDENTITY);
                 uncorrected.extend(seed_distances(&unmoved, &objects));
-                // `previous` is sorted best first, as the seeds are.
-                confident.extend(
-                    previous
-                        .iter()
-                        .take(moved.len())
-                        .map(|d| d.score >= detector.nms.per_class[d.class].score),
-                );
             }
-            previous = candidates;
+            seeded_frames += usize::from(t > 0);
+            previous = detections.clone();
             scorer.add(frame, &detections)?;
             latencies.push(ms);
             i += 1;
@@ -107,7 +93,7 @@ pub fn evaluate_sequences(
         prev,
         prev_centers: step.k,
         report: EvalReport::new(detector, scorer.finish(), &latencies),
-        seeds: SeedStats::of(&corrected, &uncorrected, &confident),
+        seeds: SeedStats::of(&corrected, &uncorrected, seeded_frames),
     })
 }
 
@@ -156,8 +142,8 @@ pub fn seeded_centers(detector: &Detector, seed: u64, seq: &Sequence, t: usize, 
         Vec::new()
     } else {
         let before = seq.dataset.load(&ids[t - 1])?;
-        let (_, _, candidates) = step.run(&before, &[], frame_seed(seed, t - 1));
-        temporal_seeds(&candidates, step.k, &Pose::between(&seq.poses[t - 1], &seq.poses[t]))
+        let (_, detections) = step.run(&before, &[], frame_seed(seed, t - 1));
+        temporal_seeds(&detections, step.k, &Pose::between(&seq.poses[t - 1], &seq.poses[t]))
     };
     let frame = seq.dataset.load(&ids[t])?;
     Ok(step.run(&frame, &moved, frame_seed(seed, t)).0.centers)
@@ -166,25 +152,19 @@ pub fn seeded_centers(detector: &Detector, seed: u64, seq: &Sequence, t: usize, 
 /// One frame of a seeded run: settings resolved once.
 struct SeededStep<'a> {
     detector: &'a Detector,
-    /// The final NMS at the seeds' score bar, keeping K boxes.
-    seed_nms: NmsConfig,
+    /// At most this many seeds per frame.
     k: usize,
 }
 
 impl<'a> SeededStep<'a> {
     fn new(detector: &'a Detector, prev: PrevCenters) -> Self {
         let k = prev.of(detector.pipeline.num_centers);
-        let mut seed_nms = detector.nms.clone();
-        for c in &mut seed_nms.per_class {
-            c.score = c.score.min(SEED_MIN_SCORE);
-        }
-        seed_nms.max_boxes = k.max(1);
-        Self { detector, seed_nms, k }
+        Self { detector, k }
     }
 
     /// Snaps the `moved` seeds onto the frame, samples centers from them and detects: the
-    /// prepared frame, its detections and the next frame's seed candidates.
-    fn run(&self, frame: &Frame, moved: &[[f32; 3]], seed: u64) -> (PreparedFrame, Vec<Detection>, Vec<Detection>) {
+    /// prepared frame and its detections (the next frame's seeds come from these).
+    fn run(&self, frame: &Frame, moved: &[[f32; 3]], seed: u64) -> (PreparedFrame, Vec<Detection>) {
         let pipeline = &self.detector.pipeline;
         let seeds = if moved.is_empty() {
             Vec::new()
@@ -193,17 +173,8 @@ impl<'a> SeededStep<'a> {
             snap_seeds(moved, &frame.points, &pool, pipeline.gather.radius)
         };
         let prepared = self.detector.prepare(frame, &seeds, seed);
-        let out = self.detector.forward(&[&prepared]);
-        // One decoding at the seeds' lower score bar serves both: `nms` applies each config's
-        // own threshold, so the detections are exactly `Detector::detect`'s.
-        let raw = self.detector.raw_detections(&out, 0, &prepared, &self.seed_nms);
-        let detections = nms(&raw, &self.detector.nms);
-        let candidates = if self.k > 0 {
-            seed_candidates(raw, &self.seed_nms)
-        } else {
-            Vec::new()
-        };
-        (prepared, detections, candidates)
+        let detections = self.detector.detect_prepared(&[&prepared]).swap_remove(0);
+        (prepared, detections)
     }
 }
 
@@ -212,15 +183,13 @@ impl<'a> SeededStep<'a> {
 pub fn temporal_table(reports: &[TemporalReport]) -> String {
     let mut t = Table::new([
         "centers N",
-        "from t − 1 K",
-        "FPS",
+        "from t − 1, at most K",
+        "seeds per frame",
         "headline AP",
         "BEV AP",
         "Δ vs K = 0",
-        "seeds",
         "within 1 m of an object",
-        "confident seeds",
-        "their median distance m",
+        "median distance m",
         "without pose correction m",
     ]);
     for (i, r) in reports.iter().enumerate() {
@@ -240,21 +209,19 @@ pub fn temporal_table(reports: &[TemporalReport]) -> String {
         let mut cells = vec![
             r.num_centers.to_string(),
             r.prev_centers.to_string(),
-            (r.num_centers - r.prev_centers).to_string(),
+            format!("{:.1}", r.seeds.per_frame()),
             format!("{:.1}", r.report.headline()),
             format!("{bev:.1}"),
             delta,
-            r.seeds.seeds.to_string(),
         ];
         if r.seeds.seeds > 0 {
             cells.extend([
                 format!("{:.0} %", 100.0 * r.seeds.within_1m),
-                r.seeds.confident.to_string(),
                 format!("{:.2}", r.seeds.median_m),
                 format!("{:.2}", r.seeds.uncorrected_median_m),
             ]);
         } else {
-            cells.extend(vec![String::new(); 4]);
+            cells.extend(vec![String::new(); 3]);
         }
         t.row(cells);
     }
@@ -352,7 +319,7 @@ mod tests {
     fn without_seeds_a_step_is_plain_fps_evaluation() {
         let (cfg, detector, budget) = setup();
         let f = frame();
-        let (prepared, dets, candidates) = SeededStep::new(&detector, PrevCenters::Count(0)).run(&f, &[], 9);
+        let (prepared, dets) = SeededStep::new(&detector, PrevCenters::Count(0)).run(&f, &[], 9);
         // What `evaluate` does with frame seed 9.
         let pipeline = budget.pipeline(&cfg.pipeline);
         let plain = prepare_frame(&f, &pipeline, None, &[], &mut ChaCha8Rng::seed_from_u64(9));
@@ -363,7 +330,6 @@ mod tests {
         assert_eq!(prepared.centers, plain.centers);
         assert!(!expected.is_empty());
         assert_eq!(dets, expected);
-        assert!(candidates.is_empty());
         // 0 % is K = 0 too.
         let pct = SeededStep::new(&detector, PrevCenters::Percent(0)).run(&f, &[], 9);
         assert_eq!(pct.1, expected);
@@ -376,7 +342,7 @@ mod tests {
         let step = SeededStep::new(&detector, PrevCenters::Count(3));
         // Three positions in front of the sensor, and one far from any point (kept as is).
         let moved = [[12.0, 1.0, -1.0], [20.0, -4.0, -1.0], [35.0, 6.0, -1.0]];
-        let (prepared, _, candidates) = step.run(&f, &moved, 4);
+        let (prepared, _) = step.run(&f, &moved, 4);
         let c = &prepared.centers;
         assert_eq!((c.len(), c.num_seeded), (24, 3));
         let pool = center_pool(&f.points, &cfg.pipeline.pool, Some((&f.calib, f.image_size)));
@@ -395,8 +361,5 @@ mod tests {
                 );
             }
         }
-        // With K = 3, the next frame's candidates are the 3 best boxes after NMS.
-        assert_eq!(candidates.len(), 3);
-        assert!(candidates.windows(2).all(|w| w[0].score >= w[1].score));
     }
 }

@@ -59,15 +59,29 @@ impl std::fmt::Display for PrevCenters {
     }
 }
 
-/// The centres of the `k` highest-scoring detections of frame t − 1 (ties in input order),
-/// moved into frame t by `prev_to_now` (see `Pose::between`).
-pub fn temporal_seeds(prev: &[Detection], k: usize, prev_to_now: &Pose) -> Vec<[f32; 3]> {
-    let mut order: Vec<usize> = (0..prev.len()).collect();
-    order.sort_by(|&i, &j| prev[j].score.total_cmp(&prev[i].score).then(i.cmp(&j)));
+/// Seeds per detection of frame t − 1 ([`temporal_seeds`]).
+pub const SEEDS_PER_DETECTION: usize = 3;
+
+/// At most `k` seeds from frame t − 1's `detections` (its final boxes: the confident ones), best
+/// score first (ties in input order), [`SEEDS_PER_DETECTION`] each: the box centre and the
+/// points a third of its length ahead of and behind it, moved into frame t by `prev_to_now`
+/// (see `Pose::between`). Several centers on one object let its boxes vote; a frame with few
+/// objects takes few seeds and leaves the rest of the budget to FPS, which is what it would
+/// have had without seeds.
+pub fn temporal_seeds(detections: &[Detection], k: usize, prev_to_now: &Pose) -> Vec<[f32; 3]> {
+    let mut order: Vec<usize> = (0..detections.len()).collect();
+    order.sort_by(|&i, &j| detections[j].score.total_cmp(&detections[i].score).then(i.cmp(&j)));
     order
         .into_iter()
+        .flat_map(|i| {
+            let b = detections[i].b;
+            let (ax, ay) = (b.heading.cos() * b.dx / 3.0, b.heading.sin() * b.dx / 3.0);
+            [[b.x, b.y, b.z], [b.x + ax, b.y + ay, b.z], [b.x - ax, b.y - ay, b.z]]
+                .into_iter()
+                .take(SEEDS_PER_DETECTION)
+        })
         .take(k)
-        .map(|i| prev_to_now.apply([prev[i].b.x, prev[i].b.y, prev[i].b.z]))
+        .map(|p| prev_to_now.apply(p))
         .collect()
 }
 
@@ -109,38 +123,36 @@ pub fn seed_distances(seeds: &[[f32; 3]], objects: &[Box3d]) -> Vec<f32> {
 pub struct SeedStats {
     /// Seeds placed.
     pub seeds: usize,
+    /// Frames that could take seeds (every frame but a sequence's first).
+    pub frames: usize,
     /// Share of seeds within 1 m of a labelled object of the model's classes.
     pub within_1m: f64,
-    /// Seeds from confident boxes (scoring above the final NMS threshold): the ones that seek
-    /// an object; the others are mostly background guesses.
-    pub confident: usize,
-    /// Median distance from a confident seed to the nearest object, metres.
+    /// Median distance from a seed to the nearest object, metres.
     pub median_m: f64,
     /// The same without the pose correction (seeds left at their frame t − 1 coordinates).
     pub uncorrected_median_m: f64,
 }
 
 impl SeedStats {
-    /// From each seed's distance with and without the pose correction, and whether it came
-    /// from a confident box.
-    pub fn of(corrected: &[f32], uncorrected: &[f32], confident: &[bool]) -> Self {
+    /// From each seed's distance with and without the pose correction, over `frames` frames.
+    pub fn of(corrected: &[f32], uncorrected: &[f32], frames: usize) -> Self {
         let median = |v: &[f32]| {
-            let mut v: Vec<f32> = v
-                .iter()
-                .zip(confident)
-                .filter(|(d, c)| **c && d.is_finite())
-                .map(|(d, _)| *d)
-                .collect();
+            let mut v: Vec<f32> = v.iter().copied().filter(|d| d.is_finite()).collect();
             v.sort_by(f32::total_cmp);
             v.get(v.len() / 2).map_or(0.0, |&d| f64::from(d))
         };
         Self {
             seeds: corrected.len(),
+            frames,
             within_1m: corrected.iter().filter(|&&d| d <= 1.0).count() as f64 / corrected.len().max(1) as f64,
-            confident: confident.iter().filter(|c| **c).count(),
             median_m: median(corrected),
             uncorrected_median_m: median(uncorrected),
         }
+    }
+
+    /// Mean seeds per frame that could take them.
+    pub fn per_frame(&self) -> f64 {
+        self.seeds as f64 / self.frames.max(1) as f64
     }
 }
 
@@ -161,15 +173,34 @@ mod tests {
         let prev = [det(10.0, 0.5), det(20.0, 0.9), det(30.0, 0.7)];
         // The ego drove 2 m forward: everything is 2 m closer.
         let moved = Pose::between(&Pose::IDENTITY, &Pose::from_xyz_yaw([2.0, 0.0, 0.0], 0.0));
-        let seeds = temporal_seeds(&prev, 2, &moved);
-        assert_eq!(seeds, vec![[18.0, 1.0, -1.0], [28.0, 1.0, -1.0]]);
+        let seeds = temporal_seeds(&prev, 4, &moved);
+        // The best box's centre, then a third of its 4 m length ahead and behind (heading 0:
+        // along x), then the next box's centre.
+        let want = [
+            [18.0, 1.0, -1.0],
+            [18.0 + 4.0 / 3.0, 1.0, -1.0],
+            [18.0 - 4.0 / 3.0, 1.0, -1.0],
+            [28.0, 1.0, -1.0],
+        ];
+        assert_eq!(seeds.len(), 4);
+        for (s, w) in seeds.iter().zip(want) {
+            assert!(s.iter().zip(w).all(|(a, b)| (a - b).abs() < 1e-5), "{s:?} vs {w:?}");
+        }
         assert!(temporal_seeds(&prev, 0, &moved).is_empty());
-        assert_eq!(temporal_seeds(&prev, 9, &moved).len(), 3);
-        let d = seed_distances(&seeds, &[Box3d::new(18.5, 1.0, -1.0, 4.0, 1.6, 1.5, 0.0)]);
-        assert_eq!(d, vec![0.5, 9.5]);
-        let stats = SeedStats::of(&d, &[2.5, 7.5], &[true, false]);
-        assert_eq!((stats.seeds, stats.confident, stats.within_1m), (2, 1, 0.5));
-        assert_eq!((stats.median_m, stats.uncorrected_median_m), (0.5, 2.5));
+        assert_eq!(temporal_seeds(&prev, 99, &moved).len(), 3 * SEEDS_PER_DETECTION);
+        // Turned boxes put their seeds along their own axis.
+        let mut turned = det(0.0, 0.9);
+        turned.b.heading = std::f32::consts::FRAC_PI_2;
+        let s = temporal_seeds(&[turned], 3, &Pose::IDENTITY);
+        assert!(
+            (s[1][0] - 0.0).abs() < 1e-5 && (s[1][1] - (1.0 + 4.0 / 3.0)).abs() < 1e-5,
+            "{s:?}"
+        );
+        let d = seed_distances(&seeds[..1], &[Box3d::new(18.5, 1.0, -1.0, 4.0, 1.6, 1.5, 0.0)]);
+        assert_eq!(d, vec![0.5]);
+        let stats = SeedStats::of(&[0.5, 9.5], &[2.5, 7.5], 4);
+        assert_eq!((stats.seeds, stats.within_1m, stats.per_frame()), (2, 0.5, 0.5));
+        assert_eq!((stats.median_m, stats.uncorrected_median_m), (9.5, 7.5));
     }
 
     #[test]

@@ -61,8 +61,8 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
         )?;
         bar.finish_and_clear();
     }
-    if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&database_path(root)) {
-        crate::prepare::run_prepare(root, &cfg.data.train_split)?;
+    if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&database_path(root, cfg.data.labels)) {
+        crate::prepare::run_prepare(root, &cfg.data.train_split, cfg.data.labels)?;
     }
     Ok(())
 }
@@ -79,7 +79,10 @@ pub fn paste_database(cfg: &ExperimentConfig) -> Result<Option<Arc<GtDatabase>>>
     if !cfg.augment.db_paste.enabled {
         return Ok(None);
     }
-    Ok(Some(Arc::new(GtDatabase::read(&database_path(&cfg.data.root))?)))
+    Ok(Some(Arc::new(GtDatabase::read(&database_path(
+        &cfg.data.root,
+        cfg.data.labels,
+    ))?)))
 }
 
 /// Item `k` of a run (counting from its first step, `batch` items per step): a frame of

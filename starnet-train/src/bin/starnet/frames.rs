@@ -2,7 +2,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use starnet_data::kitti::KittiDataset;
+use starnet_data::kitti::{KittiDataset, LabelSource};
 use starnet_data::sampling::Sampler;
 use starnet_train::coverage::run_coverage;
 use starnet_train::detector::Budget;
@@ -208,7 +208,8 @@ impl Coverage {
 }
 
 /// Build the ground-truth database for paste augmentation from the train split:
-/// every labelled object with the points inside its box, written to ROOT/gt_database.bin.
+/// every labelled object with the points inside its box, written to ROOT/gt_database.bin
+/// (ROOT/gt_database_360.bin from the simulator's all-around labels).
 #[derive(Args)]
 pub struct Prepare {
     /// KITTI root.
@@ -217,11 +218,15 @@ pub struct Prepare {
     /// Split to draw objects from.
     #[arg(long, default_value = "train")]
     split: String,
+    /// The labels to draw objects from: `label_2` (camera view) or `label_360` (the
+    /// simulator's all-around labels, for configs with `data.labels = "label_360"`).
+    #[arg(long, default_value = "label_2", value_parser = crate::models::parse_labels)]
+    labels: LabelSource,
 }
 
 impl Prepare {
     pub fn run(self) -> anyhow::Result<()> {
-        run_prepare(&self.data, &self.split)?;
+        run_prepare(&self.data, &self.split, self.labels)?;
         Ok(())
     }
 }

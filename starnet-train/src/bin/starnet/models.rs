@@ -153,7 +153,7 @@ fn parse_class(s: &str) -> Result<ObjectClass, String> {
         .ok_or_else(|| format!("unknown class `{s}` (KITTI's names: Car, Pedestrian, Cyclist, ...)"))
 }
 
-fn parse_labels(s: &str) -> Result<LabelSource, String> {
+pub(crate) fn parse_labels(s: &str) -> Result<LabelSource, String> {
     serde_json::from_value(serde_json::Value::String(s.into()))
         .map_err(|_| format!("unknown labels `{s}` (expected `label_2` or `label_360`)"))
 }
