@@ -48,18 +48,7 @@ pub struct NmsConfig {
 /// a kept box of the same class overlaps them above the class's IoU threshold. Output sorted by
 /// descending score, at most `max_boxes`.
 pub fn nms(dets: &[Detection], cfg: &NmsConfig) -> Vec<Detection> {
-    nms_after(Earlier::default(), dets, cfg, Precedence::Arrival).kept
-}
-
-/// What [`nms_after`] knows of the boxes of earlier calls (a sweep's earlier slices).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Earlier<'a> {
-    /// Boxes already emitted: they suppress new boxes (under a [`Precedence`]) but are not
-    /// returned again.
-    pub kept: &'a [Detection],
-    /// Earlier candidates (those above the score threshold), which vote with the new boxes'
-    /// candidates ([`vote`]): the same rule as NMS over both calls' boxes at once.
-    pub candidates: &'a [Detection],
+    nms_after(&[], dets, cfg, Precedence::Arrival).kept
 }
 
 /// What [`nms_after`] decided.
@@ -67,17 +56,16 @@ pub struct Earlier<'a> {
 pub struct Continued {
     /// The new boxes kept, best score first, at most `max_boxes`.
     pub kept: Vec<Detection>,
-    /// Indices into [`Earlier::kept`] of the boxes that suppressed a new candidate: objects
-    /// still in view.
+    /// Indices into `earlier` of the boxes that suppressed a new candidate: objects still in
+    /// view.
     pub suppressors: Vec<usize>,
 }
 
-/// [`nms`] continuing from earlier calls: `earlier.kept` suppress like kept boxes but are not
-/// returned (nor counted against `max_boxes`). With [`Precedence::Arrival`] an earlier box
+/// [`nms`] continuing from boxes emitted earlier: `earlier` suppress like kept boxes but are
+/// not returned (nor counted against `max_boxes`). With [`Precedence::Arrival`] an earlier box
 /// suppresses every overlapping new box; with [`Precedence::Score`] only those it outscores
-/// (ties go to the earlier box). Kept boxes vote with this call's candidates and
-/// `earlier.candidates`.
-pub fn nms_after(earlier: Earlier, dets: &[Detection], cfg: &NmsConfig, precedence: Precedence) -> Continued {
+/// (ties go to the earlier box). Kept boxes vote with this call's candidates.
+pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, precedence: Precedence) -> Continued {
     let mut order: Vec<usize> = (0..dets.len())
         .filter(|&i| {
             cfg.per_class
@@ -97,7 +85,7 @@ pub fn nms_after(earlier: Earlier, dets: &[Detection], cfg: &NmsConfig, preceden
         let clash = |k: &Detection| k.class == d.class && iou_3d(&k.b, &d.b) > thr;
         let outranks = |e: &Detection| precedence == Precedence::Arrival || e.score >= d.score;
         let before = suppressors.len();
-        suppressors.extend((0..earlier.kept.len()).filter(|&e| outranks(&earlier.kept[e]) && clash(&earlier.kept[e])));
+        suppressors.extend((0..earlier.len()).filter(|&e| outranks(&earlier[e]) && clash(&earlier[e])));
         if suppressors.len() == before && !kept.iter().any(clash) {
             kept.push(d);
         }
@@ -105,17 +93,8 @@ pub fn nms_after(earlier: Earlier, dets: &[Detection], cfg: &NmsConfig, preceden
     suppressors.sort_unstable();
     suppressors.dedup();
     // Voting reads the selected boxes, so it runs after every suppression decision is made.
-    let voters: Vec<Detection> = order
-        .iter()
-        .map(|&i| dets[i])
-        .chain(earlier.candidates.iter().copied())
-        .collect();
-    for k in &mut kept {
-        if let Some(min_iou) = cfg.per_class[k.class].vote_iou {
-            let same_class: Vec<Detection> = voters.iter().copied().filter(|d| d.class == k.class).collect();
-            k.b = vote(k, &same_class, min_iou);
-        }
-    }
+    let voters: Vec<Detection> = order.iter().map(|&i| dets[i]).collect();
+    let kept = kept.into_iter().map(|k| voted(k, &voters, cfg)).collect();
     Continued { kept, suppressors }
 }
 
@@ -280,11 +259,7 @@ impl StatefulNms {
         let mut select = cfg.clone();
         select.per_class.iter_mut().for_each(|c| c.vote_iou = None);
         let pool: Vec<Detection> = pending.iter().chain(dets).copied().collect();
-        let earlier = Earlier {
-            kept: &remembered,
-            candidates: &[],
-        };
-        let Continued { kept, suppressors } = nms_after(earlier, &pool, &select, self.precedence);
+        let Continued { kept, suppressors } = nms_after(&remembered, &pool, &select, self.precedence);
         let (emit, wait): (Vec<Detection>, Vec<Detection>) = kept
             .into_iter()
             .partition(|d| self.k == 0 || pending.contains(d) || settled(d));
