@@ -66,13 +66,7 @@ pub struct Continued {
 /// suppresses every overlapping new box; with [`Precedence::Score`] only those it outscores
 /// (ties go to the earlier box). Kept boxes vote with this call's candidates.
 pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, precedence: Precedence) -> Continued {
-    let mut order: Vec<usize> = (0..dets.len())
-        .filter(|&i| {
-            cfg.per_class
-                .get(dets[i].class)
-                .is_some_and(|c| dets[i].score >= c.score)
-        })
-        .collect();
+    let mut order: Vec<usize> = (0..dets.len()).filter(|&i| is_candidate(&dets[i], cfg)).collect();
     order.sort_by(|&i, &j| dets[j].score.total_cmp(&dets[i].score).then(i.cmp(&j)));
     let mut kept: Vec<Detection> = Vec::new();
     let mut suppressors = Vec::new();
@@ -263,11 +257,7 @@ impl StatefulNms {
         let (emit, wait): (Vec<Detection>, Vec<Detection>) = kept
             .into_iter()
             .partition(|d| self.k == 0 || pending.contains(d) || settled(d));
-        let candidates: Vec<Detection> = dets
-            .iter()
-            .filter(|d| cfg.per_class.get(d.class).is_some_and(|c| d.score >= c.score))
-            .copied()
-            .collect();
+        let candidates: Vec<Detection> = dets.iter().filter(|d| is_candidate(d, cfg)).copied().collect();
         // The pending candidates are the last remembered slice's: counted once.
         let skip_last = usize::from(!pending.is_empty());
         let voters: Vec<Detection> = self
@@ -277,11 +267,7 @@ impl StatefulNms {
             .skip(skip_last)
             .chain(&also)
             .flat_map(|m| m.candidates.iter().copied())
-            .chain(
-                pool.iter()
-                    .filter(|d| cfg.per_class.get(d.class).is_some_and(|c| d.score >= c.score))
-                    .copied(),
-            )
+            .chain(pool.iter().filter(|d| is_candidate(d, cfg)).copied())
             .collect();
         let emitted: Vec<Detection> = emit.into_iter().map(|k| voted(k, &voters, cfg)).collect();
         if !wait.is_empty() {
@@ -310,6 +296,11 @@ impl StatefulNms {
             }
         }
     }
+}
+
+/// Whether `d` is of a configured class and scores at least its threshold.
+fn is_candidate(d: &Detection, cfg: &NmsConfig) -> bool {
+    cfg.per_class.get(d.class).is_some_and(|c| d.score >= c.score)
 }
 
 /// `kept` after box voting with `voters` ([`vote`]), when its class votes.

@@ -82,8 +82,8 @@ pub fn evaluate_sequences(
                 uncorrected.extend(seed_distances(&unmoved, &objects));
             }
             seeded_frames += usize::from(t > 0);
-            previous = detections.clone();
             scorer.add(frame, &detections)?;
+            previous = detections;
             latencies.push(ms);
             i += 1;
         }
