@@ -340,6 +340,12 @@ impl ExperimentConfig {
         self.train.validate().map_err(|e| e.within("train"))?;
         self.eval.validate().map_err(|e| e.within("eval"))?;
         self.stream.validate().map_err(|e| e.within("stream"))?;
+        if !(self.loss.class_weights.is_empty() || self.loss.class_weights.len() == k) {
+            return Err(InvalidSetting::new(
+                "loss.class_weights",
+                format!("needs one weight per class ({k}), or none for all 1"),
+            ));
+        }
         if self.stream.enabled() && self.pipeline.pool.camera_frustum {
             return Err(InvalidSetting::new(
                 "pipeline.pool.camera_frustum",
@@ -710,6 +716,10 @@ mod tests {
         let ped = load_config(&dir.join("sim-360-ped.toml"), &[]).unwrap();
         assert_eq!(ped.data.labels, LabelSource::AllAround);
         assert!(!ped.pipeline.pool.camera_frustum);
+        let ped_cyc = load_config(&dir.join("sim-ped-cyc.toml"), &[]).unwrap();
+        assert_eq!(ped_cyc.data.classes, [ObjectClass::Pedestrian, ObjectClass::Cyclist]);
+        assert_eq!(ped_cyc.model.anchors.len(), 108, "lingvo's ped/cyc anchors per center");
+        assert_eq!(ped_cyc.loss.class_weights, [3.5, 3.25]);
         let car = load_config(&dir.join("kitti-car.toml"), &[]).unwrap();
         assert_eq!(car.model_config().featurizer.cell_dim(), 1440);
     }
@@ -867,6 +877,8 @@ mod tests {
             ("loss.localization_weight=-1.0", "loss.localization_weight"),
             ("loss.classification_weight=-1.0", "loss.classification_weight"),
             ("loss.direction_weight=-1.0", "loss.direction_weight"),
+            ("loss.class_weights=[-1.0]", "loss.class_weights[0]"),
+            ("loss.class_weights=[1.0, 2.0]", "loss.class_weights"),
             ("nms.iou=[1.5]", "nms.iou"),
             ("nms.score=[-0.1]", "nms.score"),
             ("nms.vote_iou=[1.5]", "nms.vote_iou"),

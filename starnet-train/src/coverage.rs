@@ -6,18 +6,16 @@ use starnet_data::kitti::{KittiDataset, ObjectClass};
 use starnet_data::sampling::{CenterPoolConfig, CoverageConfig, CoverageTable, Sampler, coverage};
 use std::path::Path;
 
-/// Measures coverage on `data` (optionally one split), prints the table and writes a PNG plot.
-pub fn run_coverage(
-    data: &Path,
-    split: Option<&str>,
+/// The paper's figure-5 measurement of `classes`: objects with at least 5 points, covered at BEV
+/// IoU > 0.5, centers drawn in the camera's view (all around the sensor within 80 m when
+/// `all_around`).
+pub fn paper_coverage(
     samples: &[usize],
     samplers: &[Sampler],
+    classes: &[ObjectClass],
     all_around: bool,
-    plot: &Path,
-    seed: u64,
-) -> Result<CoverageTable> {
-    let ds = KittiDataset::open(data, split)?;
-    let cfg = CoverageConfig {
+) -> CoverageConfig {
+    CoverageConfig {
         samples: samples.to_vec(),
         samplers: samplers.to_vec(),
         pool: if all_around {
@@ -27,9 +25,21 @@ pub fn run_coverage(
         },
         min_points: 5,
         iou: 0.5,
-        classes: vec![ObjectClass::Car, ObjectClass::Pedestrian, ObjectClass::Cyclist],
-    };
-    let table = coverage(&ds, &cfg, seed)?;
+        classes: classes.to_vec(),
+    }
+}
+
+/// Measures coverage on `data` (optionally one split), prints the table and writes a PNG plot.
+pub fn run_coverage(
+    data: &Path,
+    split: Option<&str>,
+    cfg: &CoverageConfig,
+    plot: &Path,
+    seed: u64,
+) -> Result<CoverageTable> {
+    let ds = KittiDataset::open(data, split)?;
+    let samples = &cfg.samples;
+    let table = coverage(&ds, cfg, seed)?;
     print!("{table}");
     let chart = LinePlot {
         title: format!("Object coverage, {} objects with ≥ 5 points", table.objects),

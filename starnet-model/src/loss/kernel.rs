@@ -16,7 +16,7 @@ use rayon::prelude::*;
 const CHUNK: usize = 4096;
 
 /// The loss settings the kernel needs (the weights that combine the terms stay outside).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct KernelConfig {
     /// Focal α.
     pub alpha: f32,
@@ -26,6 +26,8 @@ pub struct KernelConfig {
     pub huber_delta: f32,
     /// Heading comparison.
     pub heading: HeadingLoss,
+    /// Weight of each class column's focal term (missing columns weigh 1).
+    pub class_weights: Vec<f32>,
 }
 
 /// The network's outputs, row-major.
@@ -278,6 +280,9 @@ fn term_of_residual(j: usize) -> usize {
 /// The classification term's weighted sum over rows (in fixed chunks) and its slope per logit.
 fn classification(p: Predictions, t: Targets, cfg: &KernelConfig) -> (f64, Vec<f32>) {
     let k = t.classes_per_row().max(1);
+    let class_weights: Vec<f32> = (0..k)
+        .map(|c| cfg.class_weights.get(c).copied().unwrap_or(1.0))
+        .collect();
     let mut slope = vec![0.0; p.cls_logits.len()];
     let partial: Vec<f64> = slope
         .par_chunks_mut(CHUNK * k)
@@ -286,7 +291,7 @@ fn classification(p: Predictions, t: Targets, cfg: &KernelConfig) -> (f64, Vec<f
             let mut sum = 0f64;
             for (e, s) in (chunk * CHUNK * k..).zip(slope.iter_mut()) {
                 let (f, df) = focal(p.cls_logits[e], t.classes[e], cfg.alpha, cfg.gamma);
-                let w = t.cls_weight[e / k];
+                let w = t.cls_weight[e / k] * class_weights[e % k];
                 sum += (f * w) as f64;
                 *s = df * w;
             }
@@ -352,6 +357,7 @@ mod tests {
                 gamma: 2.0,
                 huber_delta: 1.0 / 9.0,
                 heading: heading_loss,
+                class_weights: Vec::new(),
             };
             for d in [0.05f32, -0.3, 2.0, 4.0, -3.5] {
                 let fd = derivative(|d| heading(d, &cfg).0, d);

@@ -63,6 +63,12 @@ pub struct LossConfig {
     /// Weight of the direction-bin cross-entropy in the total (OpenPCDet's 0.2).
     #[config(default = 0.2)]
     pub direction_weight: f64,
+    /// Weight of each class's focal term, in the order of the classes (lingvo's
+    /// `per_class_loss_weight`: Pedestrian 3.5, Cyclist 3.25 in its KITTI pedestrian + cyclist
+    /// model); every anchor's term for that class, foreground or background, is scaled. Empty:
+    /// every class weighs 1.
+    #[config(default = "Vec::new()")]
+    pub class_weights: Vec<f64>,
     /// Compute the terms as one fused operation where the backend allows it (flex, f32): the
     /// same maths to float rounding, with a fraction of the memory passes; false: the composed
     /// Burn operations everywhere (the reference).
@@ -86,7 +92,15 @@ impl LossConfig {
         ] {
             non_negative(key, w)?;
         }
+        for (i, &w) in self.class_weights.iter().enumerate() {
+            non_negative(&format!("class_weights[{i}]"), w)?;
+        }
         Ok(())
+    }
+
+    /// The weight of class column `k` (1 when the list is empty).
+    pub fn class_weight(&self, k: usize) -> f64 {
+        self.class_weights.get(k).copied().unwrap_or(1.0)
     }
 }
 
@@ -173,6 +187,7 @@ fn kernel_config(cfg: &LossConfig) -> kernel::KernelConfig {
         gamma: cfg.gamma as f32,
         huber_delta: cfg.huber_delta as f32,
         heading: cfg.heading,
+        class_weights: cfg.class_weights.iter().map(|&w| w as f32).collect(),
     }
 }
 
@@ -199,7 +214,11 @@ fn combine([classification, location, dimension, rotation, direction]: [Tensor<1
 pub fn starnet_loss_composed(out: &ModelOutput, t: &LossTargets, cfg: &LossConfig) -> LossTerms {
     let [b, _, _, _] = out.cls_logits.dims();
     let per_batch = |x: Tensor<3>, w: &Tensor<3>| (x * w.clone()).sum().div_scalar(b as f32);
-    let focal = sigmoid_focal(out.cls_logits.clone(), t.classes.clone(), cfg.alpha, cfg.gamma)
+    let [.., k] = out.cls_logits.dims();
+    let class_weights: Vec<f32> = (0..k).map(|c| cfg.class_weight(c) as f32).collect();
+    let class_weights =
+        Tensor::<1>::from_floats(class_weights.as_slice(), &out.cls_logits.device()).reshape([1, 1, 1, k]);
+    let focal = (sigmoid_focal(out.cls_logits.clone(), t.classes.clone(), cfg.alpha, cfg.gamma) * class_weights)
         .sum_dim(3)
         .squeeze_dim::<3>(3);
     let classification = per_batch(focal, &t.cls_weight);

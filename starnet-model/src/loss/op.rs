@@ -230,7 +230,8 @@ mod tests {
             let (out, targets) = case(&dev, k, direction, seed);
             let cfg = LossConfig::new()
                 .with_heading(heading)
-                .with_gamma(if k == 3 { 1.5 } else { 2.0 });
+                .with_gamma(if k == 3 { 1.5 } else { 2.0 })
+                .with_class_weights(if k == 2 { vec![3.5, 3.25] } else { Vec::new() });
             let fused = starnet_loss(&out, &targets, &cfg);
             let composed = starnet_loss_composed(&out, &targets, &cfg);
             let (f, c) = (terms(&fused), terms(&composed));
@@ -267,6 +268,32 @@ mod tests {
             &terms(&starnet_loss_composed(&out, &targets, &cfg)),
             1e-5,
         );
+    }
+
+    /// Class weights scale each class's column: the weighted term is the weighted sum of the
+    /// terms each class alone gives, on both paths.
+    #[test]
+    fn class_weights_scale_their_columns() {
+        let dev = default_device();
+        let (out, targets) = case(&dev, 2, false, 5);
+        let classification = |w: Vec<f64>, fused: bool| {
+            let cfg = LossConfig::new().with_class_weights(w).with_fused(fused);
+            values(starnet_loss(&out, &targets, &cfg).classification)[0]
+        };
+        for fused in [true, false] {
+            let (first, second) = (
+                classification(vec![1.0, 0.0], fused),
+                classification(vec![0.0, 1.0], fused),
+            );
+            assert!(first > 0.0 && second > 0.0);
+            let both = classification(vec![3.5, 3.25], fused);
+            assert!(
+                (both - (3.5 * first + 3.25 * second)).abs() < 1e-5 * both,
+                "fused {fused}: {both}"
+            );
+            let unweighted = classification(Vec::new(), fused);
+            assert!((unweighted - (first + second)).abs() < 1e-5 * unweighted);
+        }
     }
 
     fn op_applies(out: &ModelOutput, t: &LossTargets, cfg: &LossConfig) -> bool {

@@ -2,9 +2,9 @@
 
 use anyhow::Context;
 use clap::Args;
-use starnet_data::kitti::{KittiDataset, LabelSource};
+use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::Sampler;
-use starnet_train::coverage::run_coverage;
+use starnet_train::coverage::{paper_coverage, run_coverage};
 use starnet_train::detector::Budget;
 use starnet_train::inspect::inspect_frame;
 use starnet_train::prepare::run_prepare;
@@ -180,6 +180,9 @@ pub struct Coverage {
     /// Sample centers all around the sensor, not only in the camera's view.
     #[arg(long)]
     full: bool,
+    /// Classes counted, each with its KITTI anchors (cars', pedestrians' or cyclists').
+    #[arg(long, value_delimiter = ',', default_value = "Car,Pedestrian,Cyclist", value_parser = crate::models::parse_class)]
+    classes: Vec<ObjectClass>,
     /// Output PNG.
     #[arg(long, default_value = "coverage.png")]
     plot: PathBuf,
@@ -194,15 +197,8 @@ impl Coverage {
             !self.samples.is_empty() && self.samples.iter().all(|n| *n > 0),
             "--samples needs positive counts"
         );
-        run_coverage(
-            &self.data,
-            self.split.as_deref(),
-            &self.samples,
-            &self.sampler,
-            self.full,
-            &self.plot,
-            self.seed,
-        )?;
+        let cfg = paper_coverage(&self.samples, &self.sampler, &self.classes, self.full);
+        run_coverage(&self.data, self.split.as_deref(), &cfg, &self.plot, self.seed)?;
         Ok(())
     }
 }

@@ -148,7 +148,7 @@ pub struct Eval {
     prev_centers: Vec<PrevCenters>,
 }
 
-fn parse_class(s: &str) -> Result<ObjectClass, String> {
+pub(crate) fn parse_class(s: &str) -> Result<ObjectClass, String> {
     ObjectClass::from_name(s)
         .ok_or_else(|| format!("unknown class `{s}` (KITTI's names: Car, Pedestrian, Cyclist, ...)"))
 }
