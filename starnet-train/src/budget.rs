@@ -63,45 +63,45 @@ pub fn sweep(
     Ok(reports)
 }
 
-/// The sweep as a Markdown table: budget, GFLOP, latency and the headline APs.
+/// The sweep as a Markdown table: budget, GFLOP, latency and the headline APs (KITTI's where the
+/// labels are the camera's; Waymo-style LEVEL_1 always).
 pub fn budget_table(reports: &[EvalReport]) -> String {
-    let class = reports
-        .first()
-        .and_then(|r| r.scores.classes.first())
-        .map_or("-".into(), |c| c.class.to_string());
-    let mut t = Table::new([
+    let kitti = reports.first().and_then(|r| r.scores.classes.first()).map(|c| c.class);
+    let mut header = vec![
         "centers".to_string(),
         "points".into(),
         "GFLOP / frame".into(),
         "latency mean (ms)".into(),
         "p95 (ms)".into(),
-        format!("{class} 3D R40 mod"),
-        "BEV R40 mod".into(),
-        "LEVEL_1 AP".into(),
-        "LEVEL_1 APH".into(),
-    ]);
+    ];
+    if let Some(class) = kitti {
+        header.extend([format!("{class} 3D R40 mod"), "BEV R40 mod".into()]);
+    }
+    header.extend(["LEVEL_1 AP".into(), "LEVEL_1 APH".into()]);
+    let mut t = Table::new(header);
     for r in reports {
-        let (three_d, bev) = r
-            .scores
-            .classes
-            .first()
-            .map_or((0.0, 0.0), |c| (c.three_d[1].r40, c.bev[1].r40));
-        let waymo = r.scores.waymo.first().map(|w| w.levels[0]).unwrap_or_default();
         let centers = match r.target {
             CenterTarget::All => r.num_centers.to_string(),
             t => format!("{} ({t})", r.num_centers),
         };
-        t.row([
+        let mut cells = vec![
             centers,
             r.num_points.to_string(),
             format!("{:.2}", r.gflop_per_frame),
             format!("{:.1}", r.latency_ms_mean),
             format!("{:.1}", r.latency_ms_p95),
-            format!("{three_d:.2}"),
-            format!("{bev:.2}"),
-            format!("{:.2}", waymo.ap),
-            format!("{:.2}", waymo.aph),
-        ]);
+        ];
+        if kitti.is_some() {
+            let (three_d, bev) = r
+                .scores
+                .classes
+                .first()
+                .map_or((0.0, 0.0), |c| (c.three_d[1].r40, c.bev[1].r40));
+            cells.extend([format!("{three_d:.2}"), format!("{bev:.2}")]);
+        }
+        let waymo = r.scores.waymo.first().map(|w| w.levels[0]).unwrap_or_default();
+        cells.extend([format!("{:.2}", waymo.ap), format!("{:.2}", waymo.aph)]);
+        t.row(cells);
     }
     t.to_string()
 }
@@ -112,7 +112,8 @@ pub fn budget_plots(reports: &[EvalReport]) -> [LinePlot; 2] {
     let mut points: Vec<usize> = reports.iter().map(|r| r.num_points).collect();
     points.sort_unstable();
     points.dedup();
-    let ap = |r: &EvalReport| r.scores.classes.first().map_or(0.0, |c| c.three_d[1].r40);
+    // `Scores::headline`: KITTI 3D AP R40 moderate, or LEVEL_1 AP where the labels are all around.
+    let ap = |r: &EvalReport| r.scores.headline();
     let curve = |p: usize, x: &dyn Fn(&EvalReport) -> f64| {
         let mut pts: Vec<(f64, f64)> = reports
             .iter()
@@ -125,7 +126,12 @@ pub fn budget_plots(reports: &[EvalReport]) -> [LinePlot; 2] {
             points: pts,
         }
     };
-    let y_label = "3D AP R40 moderate (%)".to_string();
+    let y_label = if reports.iter().any(|r| !r.scores.classes.is_empty()) {
+        "3D AP R40 moderate (%)"
+    } else {
+        "LEVEL_1 3D AP (%)"
+    }
+    .to_string();
     let gflop = LinePlot {
         title: "AP vs compute: one checkpoint, centers varied along each curve".into(),
         x_label: "GFLOP per frame".into(),

@@ -42,6 +42,48 @@ fn share(v: &[bool]) -> f64 {
     100.0 * v.iter().filter(|b| **b).count() as f64 / v.len().max(1) as f64
 }
 
+/// Pedestrians' and cyclists' sizes against KITTI's tracking labels, and their returns by distance
+/// (the reference has no per-distance figure for them: the generated value stands alone).
+fn small_object_rows(
+    points: &std::collections::BTreeMap<ObjectClass, Vec<f64>>,
+    dist: &std::collections::BTreeMap<ObjectClass, Vec<f64>>,
+    sizes: &std::collections::BTreeMap<ObjectClass, Vec<[f64; 3]>>,
+) -> Vec<StatRow> {
+    let mut rows = Vec::new();
+    for (class, kitti) in [
+        (ObjectClass::Pedestrian, [0.90, 0.73, 1.76]),
+        (ObjectClass::Cyclist, [1.75, 0.68, 1.74]),
+    ] {
+        let size = sizes.get(&class).map(Vec::as_slice).unwrap_or_default();
+        for (i, axis) in ["length", "width", "height"].into_iter().enumerate() {
+            let mean = size.iter().map(|s| s[i]).sum::<f64>() / size.len() as f64; // NaN without one
+            rows.push(StatRow {
+                name: format!("{class} {axis}, mean (m)"),
+                generated: mean,
+                kitti: Some(kitti[i]),
+            });
+        }
+        let (p, d) = (points.get(&class), dist.get(&class));
+        let pairs: Vec<(f64, f64)> = p
+            .zip(d)
+            .map(|(p, d)| d.iter().copied().zip(p.iter().copied()).collect())
+            .unwrap_or_default();
+        for lo in [0.0, 10.0, 20.0, 30.0] {
+            let within: Vec<f64> = pairs
+                .iter()
+                .filter(|(d, _)| (lo..lo + 10.0).contains(d))
+                .map(|(_, p)| *p)
+                .collect();
+            rows.push(StatRow {
+                name: format!("{class} points per object at {lo}-{} m, median", lo + 10.0),
+                generated: quantile(&within, 0.5),
+                kitti: None,
+            });
+        }
+    }
+    rows
+}
+
 /// Reads every frame of `root/training` (labels, points, the 360° sidecar when present) and
 /// computes the table.
 pub fn dataset_stats(root: &std::path::Path) -> Result<DatasetStats> {
@@ -63,6 +105,7 @@ pub fn dataset_stats(root: &std::path::Path) -> Result<DatasetStats> {
     let (mut has_car, mut has_ped, mut has_cyc) = (Vec::new(), Vec::new(), Vec::new());
     let mut obj_points: std::collections::BTreeMap<ObjectClass, Vec<f64>> = Default::default();
     let mut dist: std::collections::BTreeMap<ObjectClass, Vec<f64>> = Default::default();
+    let mut sizes: std::collections::BTreeMap<ObjectClass, Vec<[f64; 3]>> = Default::default();
     let (mut car_aligned, mut ped_aligned, mut car_occ, mut car_diff) =
         (Vec::new(), Vec::new(), [0usize; 4], [0usize; 4]);
     let mut sidecar_objects = 0usize;
@@ -87,6 +130,10 @@ pub fn dataset_stats(root: &std::path::Path) -> Result<DatasetStats> {
                 .or_default()
                 .push(b.count_points_inside(&frame.points) as f64);
             dist.entry(o.class).or_default().push(o.cam.x.hypot(o.cam.z) as f64);
+            sizes
+                .entry(o.class)
+                .or_default()
+                .push([b.dx, b.dy, b.dz].map(f64::from));
             // Aligned with the road: within 20° of the ego's axis either way (ry ≈ ±π/2).
             let off = (b.heading.rem_euclid(PI)).min(PI - b.heading.rem_euclid(PI));
             match o.class {
@@ -161,6 +208,16 @@ pub fn dataset_stats(root: &std::path::Path) -> Result<DatasetStats> {
             Some(kitti[3]),
         );
     }
+    for row_of in small_object_rows(&obj_points, &dist, &sizes) {
+        s.rows.push(row_of);
+    }
+    let mut row = |name: &str, generated: f64, kitti: Option<f64>| {
+        s.rows.push(StatRow {
+            name: name.to_string(),
+            generated,
+            kitti,
+        })
+    };
     let cars = obj_points.entry(Car).or_default().clone();
     row(
         "% cars with 0 points",
@@ -231,5 +288,33 @@ impl fmt::Display for DatasetStats {
             writeln!(f, "| {} | {} | {kitti} | {ratio} |", r.name, fmt_v(r.generated))?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeMap;
+
+    #[test]
+    fn small_object_rows_average_sizes_and_bin_returns_by_distance() {
+        let ped = ObjectClass::Pedestrian;
+        let points = BTreeMap::from([(ped, vec![100.0, 40.0, 60.0])]);
+        let dist = BTreeMap::from([(ped, vec![5.0, 15.0, 16.0])]);
+        let sizes = BTreeMap::from([(ped, vec![[0.8, 0.7, 1.7], [1.0, 0.5, 1.9], [0.9, 0.6, 1.8]])]);
+        let rows = small_object_rows(&points, &dist, &sizes);
+        let get = |name: &str| rows.iter().find(|r| r.name == name).unwrap_or_else(|| panic!("{name}"));
+        assert!((get("Pedestrian length, mean (m)").generated - 0.9).abs() < 1e-9);
+        assert_eq!(get("Pedestrian height, mean (m)").kitti, Some(1.76));
+        assert_eq!(get("Pedestrian points per object at 0-10 m, median").generated, 100.0);
+        // The nearest-rank median of 40 and 60.
+        assert_eq!(get("Pedestrian points per object at 10-20 m, median").generated, 60.0);
+        assert!(
+            get("Pedestrian points per object at 20-30 m, median")
+                .generated
+                .is_nan()
+        );
+        // No cyclist: its rows are there, with no value.
+        assert!(get("Cyclist width, mean (m)").generated.is_nan());
     }
 }
