@@ -101,6 +101,14 @@ impl std::fmt::Display for Scores {
         if !self.classes.is_empty() {
             write!(f, "{}", self.kitti_table())?;
         }
+        // A class the split never labels scores 0 by definition, which reads like a miss.
+        for c in self.waymo.iter().filter(|c| c.num_objects[1] == 0) {
+            writeln!(
+                f,
+                "{}: no labelled object in these frames; its AP is 0 by definition.",
+                c.class
+            )?;
+        }
         writeln!(f, "\nWaymo-style 3D AP / APH (LEVEL_1 > 5 points, LEVEL_2 ≥ 1):")?;
         write!(f, "{}", self.waymo_table())?;
         if let (Some(c), false) = (self.classes.first(), self.by_range.is_empty()) {
