@@ -208,16 +208,9 @@ pub fn dataset_stats(root: &std::path::Path) -> Result<DatasetStats> {
             Some(kitti[3]),
         );
     }
-    for row_of in small_object_rows(&obj_points, &dist, &sizes) {
-        s.rows.push(row_of);
+    for r in small_object_rows(&obj_points, &dist, &sizes) {
+        row(&r.name, r.generated, r.kitti);
     }
-    let mut row = |name: &str, generated: f64, kitti: Option<f64>| {
-        s.rows.push(StatRow {
-            name: name.to_string(),
-            generated,
-            kitti,
-        })
-    };
     let cars = obj_points.entry(Car).or_default().clone();
     row(
         "% cars with 0 points",
