@@ -5,10 +5,9 @@
 mod common;
 
 use starnet_data::kitti::{KittiDataset, KittiObject, ObjectClass, write_results};
+use starnet_eval::EvalError;
+use starnet_eval::{DetectedBox, ResultFormat, Scores, SweepDetections, score_results, to_kitti};
 use starnet_model::nms::Detection;
-use starnet_train::TrainError;
-use starnet_train::detect::{DetectedBox, SweepDetections};
-use starnet_train::eval::{ResultFormat, Scores, score_results, to_kitti};
 use std::path::Path;
 
 const CLASSES: [ObjectClass; 3] = [ObjectClass::Car, ObjectClass::Pedestrian, ObjectClass::Cyclist];
@@ -185,6 +184,6 @@ fn damaged_result_folders_are_named() {
     assert!(e.contains(&json.display().to_string()), "{e}");
     assert!(matches!(
         score_results(&ds, dir.path(), Some(ResultFormat::Detect), None),
-        Err(TrainError::Data(_))
+        Err(EvalError::Data(_))
     ));
 }

@@ -38,6 +38,7 @@
 
 pub mod augment;
 pub mod error;
+pub mod events;
 pub mod geometry;
 pub mod io;
 pub mod kitti;

@@ -9,16 +9,8 @@ use starnet_data::geometry::{iou_3d, wrap_angle};
 use std::collections::VecDeque;
 use std::f32::consts::PI;
 
-/// A scored box.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Detection {
-    /// The box, LiDAR frame.
-    pub b: Box3d,
-    /// Class index.
-    pub class: usize,
-    /// Score in [0, 1].
-    pub score: f32,
-}
+/// A scored box (defined beside [`Box3d`], so the metrics can score boxes without the model).
+pub use starnet_data::geometry::Detection;
 
 /// Thresholds of one class.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -8,8 +8,7 @@
 //! ```no_run
 //! use starnet_data::kitti::KittiDataset;
 //! use starnet_train::detector::Detector;
-//! use std::path::Path;
-//!
+//! //!
 //! let detector = Detector::load(Path::new("runs/quickstart/checkpoints/best"))?;
 //! let val = KittiDataset::open(Path::new("data/sim"), Some("val"))?;
 //! for (i, id) in val.ids().iter().enumerate() {
@@ -21,59 +20,16 @@
 //! # Ok::<(), starnet_train::TrainError>(())
 //! ```
 
-use crate::Result;
+use crate::budget::Budget;
 use crate::config::ExperimentConfig;
-use crate::trained::TrainedModel;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
 use starnet_data::kitti::{Frame, ObjectClass};
-use starnet_data::sampling::{AnchorGrid, CenterTarget, GatherConfig, PipelineConfig, PreparedFrame, prepare_frame};
+use starnet_data::sampling::{AnchorGrid, PipelineConfig, PreparedFrame, prepare_frame};
 use starnet_model::batch::{decode_detections, make_input};
 use starnet_model::flops::forward_gflop;
 use starnet_model::nms::{Detection, NmsConfig, nms};
 use starnet_model::nn::{ModelOutput, SliceState, StarNet, StarNetConfig};
-use std::path::Path;
-
-/// How much compute a frame gets.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Budget {
-    /// Centers sampled per frame.
-    pub num_centers: usize,
-    /// Points per center.
-    pub num_points: usize,
-    /// Which sampled centers the model sees.
-    pub target: CenterTarget,
-}
-
-impl Budget {
-    /// The config's evaluation budget.
-    pub fn of(cfg: &ExperimentConfig) -> Self {
-        Self {
-            num_centers: cfg.eval.num_centers,
-            num_points: cfg.eval.num_points,
-            target: CenterTarget::All,
-        }
-    }
-
-    /// Centers the model sees.
-    pub fn model_centers(&self) -> usize {
-        self.target.count(self.num_centers)
-    }
-
-    /// `base` (the pool, sampler, center z, radius and metric) at this budget.
-    pub fn pipeline(&self, base: &PipelineConfig) -> PipelineConfig {
-        PipelineConfig {
-            num_centers: self.num_centers,
-            target: self.target,
-            gather: GatherConfig {
-                num_points: self.num_points,
-                ..base.gather
-            },
-            ..base.clone()
-        }
-    }
-}
 
 /// A streamed slice's boxes before NMS and the LSTM state the next slice starts from.
 pub struct SliceDetections {
@@ -111,12 +67,6 @@ impl Detector {
             pipeline: Budget::of(cfg).pipeline(&cfg.pipeline),
             nms: cfg.nms_config(),
         }
-    }
-
-    /// An export folder or a checkpoint (folder or `.bpk`, with the `config.toml` of its run),
-    /// at its config's evaluation budget; see [`TrainedModel::load`].
-    pub fn load(path: &Path) -> Result<Self> {
-        Ok(TrainedModel::load(path, None, &[])?.detector())
     }
 
     /// This detector at another budget (the same weights: StarNet's one model, many costs).
@@ -210,6 +160,7 @@ impl Detector {
 mod tests {
     use super::*;
     use starnet_data::kitti::Calib;
+    use starnet_data::sampling::CenterTarget;
     use starnet_data::sim::{SynthConfig, simulate_scene_frame};
 
     fn frame(scene: u64) -> Frame {

@@ -8,6 +8,9 @@ pub enum TrainError {
     /// Reading or parsing data failed.
     #[error(transparent)]
     Data(#[from] starnet_data::DataError),
+    /// Scoring or reading results failed.
+    #[error(transparent)]
+    Eval(#[from] starnet_eval::EvalError),
     /// Encoding an image failed.
     #[error("{path}: cannot encode PNG: {message}")]
     Image {
@@ -79,6 +82,17 @@ pub enum TrainError {
         /// The run folder.
         dir: PathBuf,
     },
+    /// A run folder another trainer is writing (its `train.lock` is held).
+    #[error(
+        "{dir} is in use: another trainer{} is writing this run folder; wait for it to end, or choose another run folder",
+        holder_text(.holder)
+    )]
+    RunInUse {
+        /// The run folder.
+        dir: PathBuf,
+        /// The holder's process id, as it wrote it in the lock file.
+        holder: Option<u32>,
+    },
     /// An output folder that already holds what would be written into it.
     #[error("{dir} already holds generated data; choose an empty folder")]
     NotEmpty {
@@ -112,6 +126,11 @@ pub enum TrainError {
         /// What is wrong and what is expected.
         message: String,
     },
+}
+
+/// " (process N)" when the holder of a run's lock is known.
+fn holder_text(holder: &Option<u32>) -> String {
+    holder.map(|pid| format!(" (process {pid})")).unwrap_or_default()
 }
 
 /// Result with [`TrainError`].

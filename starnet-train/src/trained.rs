@@ -41,6 +41,14 @@ impl TrainedModel {
     }
 }
 
+impl Detector {
+    /// An export folder or a checkpoint (folder or `.bpk`, with the `config.toml` of its run),
+    /// at its config's evaluation budget; see [`TrainedModel::load`].
+    pub fn load(path: &Path) -> Result<Self> {
+        Ok(TrainedModel::load(path, None, &[])?.detector())
+    }
+}
+
 /// The config given, or the `config.toml` of the run folder above `checkpoint`.
 pub fn run_config(checkpoint: &Path, given: Option<&Path>) -> Result<PathBuf> {
     if let Some(c) = given {

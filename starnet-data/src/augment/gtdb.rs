@@ -10,10 +10,10 @@
 //! 7 × `f32` box `[x y z dx dy dz heading]`, `u32` point count N and N × 4 × `f32` points.
 
 use crate::io::{atomic_write, read};
-use crate::kitti::{Difficulty, KittiDataset, ObjectClass};
+use crate::kitti::{Difficulty, KittiDataset, LabelSource, ObjectClass};
 use crate::par::parallel_for;
 use crate::{Box3d, DataError, Point, Result};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 const MAGIC: &[u8; 8] = b"STNGTDB\0";
@@ -232,6 +232,17 @@ impl<'a> Reader<'a> {
             Err(self.error(field, format!("non-finite value {v}")))
         }
     }
+}
+
+/// Where `starnet prepare` writes the database of a KITTI root from `labels`: `gt_database.bin` from
+/// the camera-view labels, `gt_database_360.bin` from the simulator's all-around ones (whose
+/// objects lie all around the sensor, so that an all-around model is pasted objects behind it
+/// as well as in front).
+pub fn database_path(root: &Path, labels: LabelSource) -> PathBuf {
+    root.join(match labels {
+        LabelSource::Camera => "gt_database.bin",
+        LabelSource::AllAround => "gt_database_360.bin",
+    })
 }
 
 #[cfg(test)]

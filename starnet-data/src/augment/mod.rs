@@ -10,7 +10,7 @@ mod paste;
 mod reflectance;
 mod transforms;
 
-pub use gtdb::{GTDB_CAPTURE_MARGIN, GTDB_VERSION, GtDatabase, GtEntry};
+pub use gtdb::{GTDB_CAPTURE_MARGIN, GTDB_VERSION, GtDatabase, GtEntry, database_path};
 pub use paste::{DbPasteConfig, paste_from_database};
 pub use reflectance::{ReflectanceAugment, ReflectanceDraw, augment_reflectance};
 pub use transforms::{Scene, flip_y, rotate_box, rotate_boxes, rotate_z, scale, shift_z};

@@ -133,6 +133,32 @@ impl StarNetConfig {
     }
 }
 
+/// Serialises [`StarNetConfig::init_seeded`]: Burn draws initial weights from its device's
+/// generator, so two initialisations in one process must not interleave their draws.
+static SEEDED_INIT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+impl StarNetConfig {
+    /// A network whose initial weights depend on `seed` alone, whatever else the process is
+    /// doing: the device's generator is seeded and every weight drawn (in the module's field
+    /// order; Burn initialises lazily, at first use) while no other seeded initialisation runs.
+    pub fn init_seeded(&self, device: &Device, seed: u64) -> StarNet {
+        let _only_one = SEEDED_INIT.lock().unwrap_or_else(|e| e.into_inner());
+        device.seed(seed);
+        let model = self.init(device);
+        model.visit(&mut Materialise);
+        model
+    }
+}
+
+/// Draws every lazily initialised parameter it visits.
+struct Materialise;
+
+impl burn::module::ModuleVisitor for Materialise {
+    fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+        let _ = param.val();
+    }
+}
+
 /// StarNet.
 #[derive(Module, Debug)]
 pub struct StarNet {

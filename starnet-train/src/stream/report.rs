@@ -5,12 +5,12 @@
 
 use super::run::{NmsMode, StreamReport};
 use crate::Result;
-use crate::eval::ANGLE_BINS_DEG;
 use crate::render::{LinePlot, Series};
-use crate::table::Table;
 use serde::{Deserialize, Serialize};
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::ObjectClass;
+use starnet_eval::Table;
+use starnet_eval::metrics::ANGLE_BINS_DEG;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -273,6 +273,6 @@ pub fn write_stream(out: &Path, runs: &[StreamRun]) -> Result<()> {
 pub fn replot_stream(dir: &Path) -> Result<()> {
     write_stream(
         dir,
-        &crate::budget::read_json::<Vec<StreamRun>>(&dir.join("stream.json"))?,
+        &crate::json::read_json::<Vec<StreamRun>>(&dir.join("stream.json"))?,
     )
 }

@@ -1,18 +1,19 @@
 //! Streaming a sweep through a model slice by slice, and evaluating it over a split.
 
 use crate::Result;
+use crate::budget::Budget;
 use crate::config::{ExperimentConfig, StreamSection};
-use crate::detector::{Budget, Detector};
-use crate::eval::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_angle, waymo_ap};
-use crate::eval::{Scores, to_kitti, waymo_objects};
-use crate::synth::progress_bar;
-use crate::train::EvalReport;
+use crate::detector::Detector;
 use serde::{Deserialize, Serialize};
+use starnet_data::events::Task;
 use starnet_data::kitti::{KittiDataset, LabelSource};
 use starnet_data::sampling::{CenterTarget, SliceConfig, centers_per_slice, prepare_slice, slice_points, slice_rng};
 use starnet_data::sim::sub_seed;
 use starnet_data::summary::{mean, quantile};
 use starnet_data::{Box3d, Point};
+use starnet_eval::EvalReport;
+use starnet_eval::metrics::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_angle, waymo_ap};
+use starnet_eval::{Scores, to_kitti, waymo_objects};
 use starnet_model::flops::forward_gflop;
 use starnet_model::nms::{Detection, Emission, StatefulNms, nms};
 use starnet_model::nn::StarNet;
@@ -329,9 +330,9 @@ pub fn evaluate_stream(
     let mut frames: [Vec<WaymoFrame>; 3] = Default::default();
     let mut slice_ms = Vec::new();
     let mut sweep_ms = Vec::new();
-    let bar = progress_bar(gt.frames.len() as u64, &format!("stream {n} slices"));
+    let task = Task::begin(&format!("stream {n} slices"), gt.frames.len() as u64);
     for (i, (id, objects)) in gt.frames.iter().enumerate() {
-        bar.inc(1);
+        task.inc(1);
         let frame = dataset.load(id)?;
         let streamed = stream_sweep(m, &frame.points, n, sub_seed(m.seed, 23, i as u64));
         sweep_ms.push(streamed.slice_ms.iter().sum::<f64>());
@@ -354,7 +355,7 @@ pub fn evaluate_stream(
             });
         }
     }
-    bar.finish_and_clear();
+    drop(task);
     let budget = m.detector.budget();
     let per = centers_per_slice(budget.num_centers, n);
     let gflop = forward_gflop(&m.detector.network, per, budget.num_points);

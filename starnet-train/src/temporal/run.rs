@@ -3,17 +3,19 @@
 use super::seeds::{PrevCenters, SeedStats, seed_distances, snap_seeds, temporal_seeds};
 use super::sequence::Sequence;
 use crate::Result;
-use crate::detector::{Budget, Detector};
-use crate::eval::Scorer;
+use crate::budget::Budget;
+use crate::detector::Detector;
+use crate::evaluate::{eval_report, frame_seed};
 use crate::render::{LinePlot, Series};
-use crate::table::Table;
-use crate::train::{EvalReport, frame_seed};
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::Pose;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::Frame;
 use starnet_data::sampling::{Centers, PreparedFrame, center_pool};
+use starnet_eval::EvalReport;
+use starnet_eval::Scorer;
+use starnet_eval::Table;
 use starnet_model::nms::Detection;
 use std::path::Path;
 use std::time::Instant;
@@ -92,7 +94,7 @@ pub fn evaluate_sequences(
         num_centers: budget.num_centers,
         prev,
         prev_centers: step.k,
-        report: EvalReport::new(detector, scorer.finish(), &latencies),
+        report: eval_report(detector, scorer.finish(), &latencies),
         seeds: SeedStats::of(&corrected, &uncorrected, seeded_frames),
     })
 }
@@ -277,7 +279,7 @@ pub fn write_temporal(out: &Path, reports: &[TemporalReport]) -> Result<()> {
 pub fn replot_temporal(dir: &Path) -> Result<()> {
     write_temporal(
         dir,
-        &crate::budget::read_json::<Vec<TemporalReport>>(&dir.join("temporal.json"))?,
+        &crate::json::read_json::<Vec<TemporalReport>>(&dir.join("temporal.json"))?,
     )
 }
 

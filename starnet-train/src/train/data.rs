@@ -7,19 +7,21 @@
 use super::schedule::Schedule;
 use crate::config::ExperimentConfig;
 use crate::distributed::Shard;
-use crate::prepare::database_path;
-use crate::synth::progress_bar;
+
 use crate::{Result, TrainError};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
-use starnet_data::augment::GtDatabase;
-use starnet_data::kitti::KittiDataset;
+use starnet_data::augment::{GtDatabase, database_path};
+use starnet_data::events::{Task, note};
+use starnet_data::kitti::{KittiDataset, LabelSource};
 use starnet_data::loader::Loader;
 use starnet_data::sampling::{Augmentation, PreparedFrame, prepare_frame, prepare_sweep};
 use starnet_data::sim::{SIMULATOR_VERSION, SynthConfig, generated_version, sub_seed, synth_frames};
 use starnet_model::assign::AnchorTargets;
 use starnet_model::batch::frame_targets;
+use std::collections::BTreeMap;
+use std::path::Path;
 use std::sync::Arc;
 
 /// One prepared frame (a whole sweep, or one slice of it) with its anchor targets.
@@ -46,23 +48,22 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
         });
     }
     if !root.join("training/velodyne").is_dir() && cfg.data.simulate_frames > 0 {
-        println!(
+        note(format!(
             "generating {} simulated frames at {}",
             cfg.data.simulate_frames,
             root.display()
-        );
-        let bar = progress_bar(cfg.data.simulate_frames as u64, "synth");
+        ));
+        let task = Task::begin("synth", cfg.data.simulate_frames as u64);
         synth_frames(
             root,
             cfg.data.simulate_frames,
             cfg.data.simulate_seed,
             &SynthConfig::default(),
-            &|| bar.inc(1),
+            &|| task.inc(1),
         )?;
-        bar.finish_and_clear();
     }
     if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&database_path(root, cfg.data.labels)) {
-        crate::prepare::run_prepare(root, &cfg.data.train_split, cfg.data.labels)?;
+        prepare_database(root, &cfg.data.train_split, cfg.data.labels)?;
     }
     Ok(())
 }
@@ -72,6 +73,36 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
 pub fn slices_at(cfg: &ExperimentConfig, step: u64) -> Option<usize> {
     let choices = &cfg.stream.train_slices;
     (!choices.is_empty()).then(|| choices[(sub_seed(cfg.seed, 33, step) % choices.len() as u64) as usize])
+}
+
+/// Builds the database from `split` (normally `train`) with `labels` and writes it to
+/// [`database_path`].
+pub fn prepare_database(root: &Path, split: &str, labels: LabelSource) -> Result<GtDatabase> {
+    let ds = KittiDataset::open(root, Some(split))?.with_labels(labels);
+    let task = Task::begin("prepare", ds.ids().len() as u64);
+    let db = GtDatabase::build(&ds, &|| task.inc(1))?;
+    drop(task);
+    let path = database_path(root, labels);
+    db.write(&path)?;
+    let mut per_class: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+    for e in &db.entries {
+        let c = per_class.entry(e.class.to_string()).or_default();
+        c.0 += 1;
+        c.1 += e.points.len();
+    }
+    note(format!(
+        "wrote {} ({} objects from {} frames of `{split}`)",
+        path.display(),
+        db.entries.len(),
+        ds.ids().len()
+    ));
+    for (class, (n, pts)) in per_class {
+        note(format!(
+            "  {class:<15} {n:>6} objects, {:>6.1} points on average",
+            pts as f64 / n as f64
+        ));
+    }
+    Ok(db)
 }
 
 /// The paste augmentation's database, when the config enables it.

@@ -34,8 +34,8 @@ mod checkpoint;
 mod clip;
 mod data;
 mod ema;
-mod evaluate;
 mod log;
+mod run_lock;
 mod schedule;
 mod step;
 mod trainer;
@@ -45,10 +45,10 @@ pub use checkpoint::{
     save_checkpoint,
 };
 pub use clip::{clip_global_norm, global_norm, scale_to_norm, squared_grad_norms};
-pub use data::{TrainItem, ensure_data, paste_database, slices_at, train_item, train_loader};
+pub use data::{TrainItem, ensure_data, paste_database, prepare_database, slices_at, train_item, train_loader};
 pub use ema::WeightEma;
-pub use evaluate::{EvalOptions, EvalReport, evaluate, frame_seed};
 pub use log::{StepRecord, TrainLog, progress_line};
+pub use run_lock::{LOCK_FILE, RunLock};
 pub use schedule::{Schedule, lr_multiplier};
 pub use step::{StepLosses, Trainer};
 pub use trainer::{OnTie, RunFolder, TrainOptions, TrainSummary, end_epoch, run_dir_for, train, validate};

@@ -11,18 +11,20 @@
 
 use super::checkpoint::{latest_checkpoint, prune};
 use super::data::{TrainItem, ensure_data, paste_database, train_loader};
-use super::evaluate::{EvalOptions, EvalReport, evaluate};
 use super::log::{StepRecord, TrainLog, progress_line};
+use super::run_lock::RunLock;
 use super::schedule::Schedule;
 use super::step::Trainer;
+use crate::budget::Budget;
 use crate::config::{ExperimentConfig, to_toml};
-use crate::detector::{Budget, Detector};
+use crate::detector::Detector;
 use crate::distributed::{Replicas, Role};
+use crate::evaluate::{EvalOptions, evaluate};
 use crate::stream::{NmsMode, StreamGroundTruth, StreamModel, evaluate_stream};
-use crate::synth::progress_bar;
 use crate::{Result, TrainError};
-use indicatif::ProgressBar;
+use starnet_data::events::{Task, note};
 use starnet_data::kitti::KittiDataset;
+use starnet_eval::EvalReport;
 use starnet_model::nn::StarNet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -71,7 +73,7 @@ pub fn validate(
     let gt = StreamGroundTruth::read(cfg.stream.eval_range, val, None)?;
     let streamed = StreamModel::new(String::new(), model.clone(), cfg, Budget::of(cfg));
     let report = evaluate_stream(&streamed, val, &gt, cfg.stream.eval_slices)?;
-    println!("{report}");
+    note(report.to_string());
     Ok(report.eval_report(NmsMode::Stateful))
 }
 
@@ -98,11 +100,16 @@ pub struct RunFolder {
     pub checkpoints: PathBuf,
     /// The newest `step-*` checkpoint, when resuming.
     pub resume_from: Option<PathBuf>,
+    /// The writer's lock, held while any clone of this folder lives ([`RunLock`]).
+    _lock: Option<Arc<RunLock>>,
 }
 
 impl RunFolder {
-    /// Prepares `dir` for `cfg`; a folder holding checkpoints needs `resume`.
+    /// Prepares `dir` for `cfg` and takes its writer's lock ([`RunLock`]: a folder another
+    /// trainer is writing is refused); a folder holding checkpoints needs `resume`.
     pub fn create(dir: &Path, cfg: &ExperimentConfig, resume: bool) -> Result<Self> {
+        std::fs::create_dir_all(dir).map_err(|e| starnet_data::DataError::io(dir, e))?;
+        let lock = RunLock::acquire(dir)?;
         let checkpoints = dir.join("checkpoints");
         let resume_from = latest_checkpoint(&checkpoints);
         if resume_from.is_some() && !resume {
@@ -114,6 +121,7 @@ impl RunFolder {
             dir: dir.to_path_buf(),
             checkpoints,
             resume_from,
+            _lock: Some(Arc::new(lock)),
         })
     }
 
@@ -125,6 +133,7 @@ impl RunFolder {
             resume_from: latest_checkpoint(&checkpoints),
             dir: dir.to_path_buf(),
             checkpoints,
+            _lock: None,
         }
     }
 
@@ -174,11 +183,11 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
         .writes()
         .then(|| TrainLog::open(&run.dir.join("log.jsonl")))
         .transpose()?;
-    let bar = progress_bar(schedule.total, "train");
-    if !role.writes() {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    // Only the writing member reports: the others' progress is the same.
+    let task = role.writes().then(|| Task::begin("train", schedule.total));
+    if let Some(task) = &task {
+        task.set_position(trainer.state.step);
     }
-    bar.set_position(trainer.state.step);
     let stop_requested = || opts.stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed));
     let mut clock = Instant::now();
     while trainer.state.step < schedule.end && !role.any(stop_requested()) {
@@ -193,14 +202,16 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
             frames_per_s: (sweeps.len() * role.shard.ranks) as f64 / clock.elapsed().as_secs_f64(),
         };
         clock = Instant::now();
-        let Some(log) = log.as_mut() else { continue };
-        report_step(&record, &bar, log, cfg.train.log_every, schedule.total)?;
+        let (Some(log), Some(task)) = (log.as_mut(), &task) else {
+            continue;
+        };
+        report_step(&record, task, log, cfg.train.log_every, schedule.total)?;
         if schedule.epoch_ends(record.step) {
             // The training bar steps aside while the evaluation draws its own.
-            bar.suspend(|| end_epoch(cfg, &run, &mut trainer, log, &schedule, &val_set))?;
+            end_epoch(cfg, &run, &mut trainer, log, &schedule, &val_set)?;
         }
     }
-    bar.finish_and_clear();
+    drop(task);
     let Some(mut log) = log else {
         return Ok(summary(&run, &trainer, trainer.state.step < schedule.end, None));
     };
@@ -232,9 +243,8 @@ fn start_trainer(cfg: &ExperimentConfig, run: &RunFolder, role: &Role) -> Result
         message: e.to_string(),
     })?;
     let device = device.autodiff();
-    device.seed(cfg.seed);
     if let (Some(dir), true) = (&run.resume_from, role.writes()) {
-        println!("resuming from {}", dir.display());
+        note(format!("resuming from {}", dir.display()));
     }
     let trainer = Trainer::start(cfg, run.resume_from.as_deref(), &device)?;
     match &role.group {
@@ -243,19 +253,18 @@ fn start_trainer(cfg: &ExperimentConfig, run: &RunFolder, role: &Role) -> Result
     }
 }
 
-/// A step's record to the log, the progress bar and, without a terminal, every `log_every`
-/// steps to stderr.
-fn report_step(record: &StepRecord, bar: &ProgressBar, log: &mut TrainLog, log_every: usize, total: u64) -> Result<()> {
+/// A step's record to the log, and to the task's progress: its position and status every
+/// step, a log line every `log_every` steps.
+fn report_step(record: &StepRecord, task: &Task, log: &mut TrainLog, log_every: usize, total: u64) -> Result<()> {
     log.step(record)?;
-    bar.set_position(record.step);
+    task.set_position(record.step);
     let l = &record.losses;
-    bar.set_message(format!(
+    task.status(&format!(
         "epoch {:.2} loss {:.4} (cls {:.4} loc {:.4}) lr {:.2e} {:.1} frames/s",
         record.epoch, l.loss, l.classification, l.location, record.lr, record.frames_per_s
     ));
-    let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    if !terminal && record.step.is_multiple_of(log_every.max(1) as u64) {
-        eprintln!("{}", progress_line(record, total));
+    if record.step.is_multiple_of(log_every.max(1) as u64) {
+        task.log(&progress_line(record, total));
     }
     Ok(())
 }
@@ -271,10 +280,10 @@ fn finish(
 ) -> Result<TrainSummary> {
     if trainer.state.step < schedule.end {
         run.save_step(&trainer, cfg.train.keep_last)?;
-        println!(
+        note(format!(
             "stopped at step {}: checkpoint saved, continue with --resume",
             trainer.state.step
-        );
+        ));
         return Ok(summary(run, &trainer, true, None));
     }
     let report = validate(&trainer.eval_model(), cfg, val_set, Some(&run.dir.join("results")))?;

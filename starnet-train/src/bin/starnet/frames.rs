@@ -4,13 +4,12 @@ use anyhow::Context;
 use clap::Args;
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::Sampler;
-use starnet_train::coverage::{paper_coverage, run_coverage};
-use starnet_train::detector::Budget;
-use starnet_train::inspect::inspect_frame;
-use starnet_train::prepare::run_prepare;
-use starnet_train::realism::{DataSource, compare_data, write_comparison};
+use starnet_train::budget::Budget;
+use starnet_train::commands::compare_data::{DataSource, compare_data, write_comparison};
+use starnet_train::commands::coverage::{paper_coverage, run_coverage};
+use starnet_train::commands::inspect::inspect_frame;
+use starnet_train::commands::synth::{SynthJob, run_stats, run_synth};
 use starnet_train::render::{BevOptions, RenderOptions, render_frame};
-use starnet_train::synth::{SynthJob, run_stats, run_synth};
 use starnet_train::temporal::{PrevCenters, Sequence, seeded_centers};
 use starnet_train::trained::TrainedModel;
 use std::path::PathBuf;
@@ -222,7 +221,7 @@ pub struct Prepare {
 
 impl Prepare {
     pub fn run(self) -> anyhow::Result<()> {
-        run_prepare(&self.data, &self.split, self.labels)?;
+        starnet_train::train::prepare_database(&self.data, &self.split, self.labels)?;
         Ok(())
     }
 }

@@ -6,6 +6,7 @@ mod distributed;
 mod frames;
 mod models;
 mod outputs;
+mod terminal;
 
 use clap::{Parser, Subcommand};
 
@@ -46,6 +47,8 @@ fn main() -> anyhow::Result<()> {
     // The model runs on this thread: let it take part in its own parallel work. Had another
     // pool been built first, everything would still work, only slower.
     starnet_model::backend::compute_on_this_thread();
+    // The library reports; this prints.
+    starnet_data::events::set_observer(terminal::Terminal::new());
     match Cli::parse().command {
         Command::Inspect(c) => c.run(),
         Command::Render(c) => c.run(),

@@ -5,12 +5,13 @@ use anyhow::Context;
 use clap::Args;
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::CenterTarget;
-use starnet_train::budget::{budget_grid, budget_table, sweep};
-use starnet_train::detector::Budget;
-use starnet_train::eval::{ResultFormat, score_results, write_scores};
+use starnet_eval::{ResultFormat, score_results, write_scores};
+use starnet_train::budget::Budget;
+use starnet_train::commands::eval::{budget_grid, budget_table, sweep};
+use starnet_train::evaluate::EvalOptions;
 use starnet_train::stream::{StreamGroundTruth, StreamModel, stream_runs, stream_tables, write_stream};
 use starnet_train::temporal::{PrevCenters, open_sequences, temporal_sweep, temporal_table, write_temporal};
-use starnet_train::train::{EvalOptions, TrainOptions, run_dir_for, train};
+use starnet_train::train::{TrainOptions, run_dir_for, train};
 use starnet_train::trained::{TrainedModel, run_label};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -351,8 +352,8 @@ pub struct Detect {
 impl Detect {
     pub fn run(self) -> anyhow::Result<()> {
         let trained = TrainedModel::load(&self.model, self.config.as_deref(), &[])?;
-        let files = starnet_train::detect::sweep_files(&self.input)?;
-        let sweeps = starnet_train::detect::detect(
+        let files = starnet_train::commands::detect::sweep_files(&self.input)?;
+        let sweeps = starnet_train::commands::detect::detect(
             &trained.detector(),
             trained.config.seed,
             &files,

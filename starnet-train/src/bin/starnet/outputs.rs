@@ -1,8 +1,8 @@
 //! Commands on what runs wrote and read: `plot`, `config`.
 
 use clap::Args;
-use starnet_train::budget::replot_sweep;
-use starnet_train::curves::plot_run;
+use starnet_train::commands::eval::replot_sweep;
+use starnet_train::commands::plot::plot_run;
 use starnet_train::stream::replot_stream;
 use starnet_train::temporal::replot_temporal;
 use std::path::{Path, PathBuf};

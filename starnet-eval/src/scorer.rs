@@ -7,14 +7,16 @@
 //! mapped back through the calibration; so a result folder scores exactly as the evaluation
 //! that wrote it.
 
-use super::{ClassAp, RangeAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_range, kitti_ap, waymo_ap};
 use crate::Result;
+use crate::metrics::{
+    ClassAp, RangeAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_range, kitti_ap, waymo_ap,
+};
 use crate::table::Table;
 use serde::{Deserialize, Serialize};
+use starnet_data::geometry::Detection;
 use starnet_data::kitti::{
     Calib, Frame, ImageSize, KittiObject, LabelSource, ObjectClass, observation_angle, write_results,
 };
-use starnet_model::nms::Detection;
 use std::path::Path;
 
 /// Distance bins of [`Scores::by_range`] reach this far, metres.

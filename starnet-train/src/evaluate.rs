@@ -5,75 +5,26 @@
 use crate::Result;
 use crate::config::ExperimentConfig;
 use crate::detector::Detector;
-use crate::eval::{Scorer, Scores};
-use crate::synth::progress_bar;
-use serde::{Deserialize, Serialize};
+use starnet_data::events::Task;
 use starnet_data::kitti::KittiDataset;
-use starnet_data::sampling::CenterTarget;
 use starnet_data::sim::sub_seed;
 use starnet_data::summary::{mean, quantile};
+use starnet_eval::{EvalReport, Scorer, Scores};
 use std::path::Path;
 use std::time::Instant;
 
-/// What an evaluation found: the budget and its cost, and the scores.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct EvalReport {
-    /// Centers sampled per frame.
-    pub num_centers: usize,
-    /// Points per center.
-    pub num_points: usize,
-    /// Which sampled centers the model saw.
-    pub target: CenterTarget,
-    /// Forward GFLOP per frame at this budget.
-    pub gflop_per_frame: f64,
-    /// Mean wall time per frame (preparation, forward, decoding), ms.
-    pub latency_ms_mean: f64,
-    /// 95th percentile of the per-frame time, ms.
-    pub latency_ms_p95: f64,
-    /// The scores (`eval.json` holds their fields beside the budget's).
-    #[serde(flatten)]
-    pub scores: Scores,
-}
-
-impl EvalReport {
-    /// The report of `detector` (at its budget) scoring `scores`, its frames having taken
-    /// `latencies_ms` each.
-    pub fn new(detector: &Detector, scores: Scores, latencies_ms: &[f64]) -> Self {
-        let budget = detector.budget();
-        Self {
-            num_centers: budget.num_centers,
-            num_points: budget.num_points,
-            target: budget.target,
-            gflop_per_frame: detector.gflop_per_frame(),
-            latency_ms_mean: mean(latencies_ms),
-            latency_ms_p95: quantile(latencies_ms, 0.95).unwrap_or(0.0),
-            scores,
-        }
-    }
-
-    /// The headline AP ([`Scores::headline`]).
-    pub fn headline(&self) -> f64 {
-        self.scores.headline()
-    }
-}
-
-impl std::fmt::Display for EvalReport {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let target = match self.target {
-            CenterTarget::All => String::new(),
-            t => format!(" (target {t})"),
-        };
-        writeln!(
-            f,
-            "{} frames, {} centers{target} x {} points ({:.2} GFLOP/frame), latency {:.1} ms mean, {:.1} ms p95",
-            self.scores.frames,
-            self.num_centers,
-            self.num_points,
-            self.gflop_per_frame,
-            self.latency_ms_mean,
-            self.latency_ms_p95
-        )?;
-        write!(f, "{}", self.scores)
+/// The report of `detector` (at its budget) scoring `scores`, its frames having taken
+/// `latencies_ms` each.
+pub fn eval_report(detector: &Detector, scores: Scores, latencies_ms: &[f64]) -> EvalReport {
+    let budget = detector.budget();
+    EvalReport {
+        num_centers: budget.num_centers,
+        num_points: budget.num_points,
+        target: budget.target,
+        gflop_per_frame: detector.gflop_per_frame(),
+        latency_ms_mean: mean(latencies_ms),
+        latency_ms_p95: quantile(latencies_ms, 0.95).unwrap_or(0.0),
+        scores,
     }
 }
 
@@ -108,9 +59,9 @@ pub fn evaluate(
     let batch = opts.batch_size.max(1);
     let budget = detector.budget();
     let mut latencies = Vec::with_capacity(dataset.ids().len());
-    let bar = progress_bar(
-        dataset.ids().len() as u64,
+    let task = Task::begin(
         &format!("eval {} x {}", budget.num_centers, budget.num_points),
+        dataset.ids().len() as u64,
     );
     for (chunk_i, ids) in dataset.ids().chunks(batch).enumerate() {
         let loaded: Vec<_> = ids
@@ -128,10 +79,9 @@ pub fn evaluate(
             scorer.add(frame, &decoded)?;
             latencies.push(per_frame);
         }
-        bar.inc(ids.len() as u64);
+        task.inc(ids.len() as u64);
     }
-    bar.finish_and_clear();
-    Ok(EvalReport::new(detector, scorer.finish(), &latencies))
+    Ok(eval_report(detector, scorer.finish(), &latencies))
 }
 
 /// The seed of the `i`-th evaluated frame's sampling RNG, for experiment seed `seed`.

@@ -61,7 +61,7 @@ pub fn ap_by_angle(frames: &[WaymoFrame], class: ObjectClass) -> Vec<AngleAp> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eval::{WaymoDetection, WaymoObject};
+    use crate::metrics::{WaymoDetection, WaymoObject};
     use starnet_data::Box3d;
 
     #[test]

@@ -1,7 +1,7 @@
 //! `starnet synth`: generate the built-in simulator dataset, or print its statistics.
 
 use crate::{Result, TrainError};
-use indicatif::{ProgressBar, ProgressState, ProgressStyle};
+use starnet_data::events::{Task, note};
 use starnet_data::sim::{SynthConfig, dataset_stats, synth_frames, synth_sequences};
 use std::path::Path;
 use std::time::Instant;
@@ -20,21 +20,6 @@ pub enum SynthJob {
     },
 }
 
-/// A progress bar on a terminal (indicatif draws nothing when stderr is not one).
-pub fn progress_bar(total: u64, what: &str) -> ProgressBar {
-    let bar = ProgressBar::new(total);
-    bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {rate} eta {eta}")
-            .expect("valid template")
-            .with_key("rate", |s: &ProgressState, w: &mut dyn std::fmt::Write| {
-                let _ = write!(w, "{:.1}/s", s.per_sec());
-            })
-            .progress_chars("=> "),
-    );
-    bar.set_message(what.to_string());
-    bar
-}
-
 /// Generates a dataset under `root`. Refuses a root that already holds one, so frames from an
 /// earlier, larger run can never mix with this one.
 pub fn run_synth(root: &Path, job: SynthJob, seed: u64, cfg: &SynthConfig) -> Result<()> {
@@ -50,24 +35,25 @@ pub fn run_synth(root: &Path, job: SynthJob, seed: u64, cfg: &SynthConfig) -> Re
         SynthJob::Frames(n) => n,
         SynthJob::Sequences { sequences, length } => sequences * length,
     };
-    let bar = progress_bar(total as u64, "synth");
-    let tick = || bar.inc(1);
+    let task = Task::begin("synth", total as u64);
+    let tick = || task.inc(1);
     match job {
         SynthJob::Frames(n) => synth_frames(root, n, seed, cfg, &tick)?,
         SynthJob::Sequences { sequences, length } => synth_sequences(root, sequences, length, seed, cfg, &tick)?,
     }
-    bar.finish_and_clear();
+    drop(task);
     let secs = start.elapsed().as_secs_f64();
-    println!(
+    note(format!(
         "wrote {total} frames to {} in {secs:.1} s ({:.1} frames/s)",
         root.display(),
         total as f64 / secs
-    );
+    ));
     Ok(())
 }
 
-/// Prints the statistics table of a generated set.
+/// Reports the statistics table of a generated set.
 pub fn run_stats(root: &Path) -> Result<()> {
-    print!("{}", dataset_stats(root)?);
+    let stats = dataset_stats(root)?.to_string();
+    note(stats.strip_suffix('\n').unwrap_or(&stats));
     Ok(())
 }

@@ -3,15 +3,15 @@
 //! as `starnet detect` writes them (LiDAR frame). As the devkit does, every frame of the split
 //! needs its file (an empty one for a frame without detections).
 
-use super::{Scorer, Scores};
-use crate::detect::SweepDetections;
-use crate::synth::progress_bar;
-use crate::{Result, TrainError};
+use crate::detections::SweepDetections;
+use crate::scorer::{Scorer, Scores};
+use crate::{EvalError, Result};
 use starnet_data::DataError;
+use starnet_data::events::Task;
 use starnet_data::geometry::Box3d;
+use starnet_data::geometry::Detection;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::{KittiDataset, KittiObject, LabelSource, ObjectClass, read_labels};
-use starnet_model::nms::Detection;
 use std::path::{Path, PathBuf};
 
 /// What a result folder holds per frame.
@@ -37,7 +37,7 @@ impl ResultFormat {
         [Self::Kitti, Self::Detect]
             .into_iter()
             .find(|f| f.file(dir, id).is_file())
-            .ok_or_else(|| TrainError::NoInput {
+            .ok_or_else(|| EvalError::NoInput {
                 dir: dir.to_path_buf(),
                 what: format!("result file for frame {id} ({id}.txt or {id}.json)"),
             })
@@ -145,7 +145,7 @@ pub fn score_results(
     classes: Option<&[ObjectClass]>,
 ) -> Result<Scores> {
     let ids = dataset.ids();
-    let first = ids.first().ok_or_else(|| TrainError::NoInput {
+    let first = ids.first().ok_or_else(|| EvalError::NoInput {
         dir: dataset.root().to_path_buf(),
         what: "frames in the split".into(),
     })?;
@@ -154,7 +154,7 @@ pub fn score_results(
         None => ResultFormat::of_folder(dir, first)?,
     };
     if format == ResultFormat::Kitti && dataset.labels() != LabelSource::Camera {
-        return Err(TrainError::InvalidArgument {
+        return Err(EvalError::InvalidArgument {
             name: dir.display().to_string(),
             message: "KITTI result files hold camera-view boxes only; score 360° labels from `detect` JSON files"
                 .into(),
@@ -166,22 +166,21 @@ pub fn score_results(
         .collect::<Result<Vec<_>>>()?;
     let classes = classes.map_or_else(|| detected_classes(&results), <[_]>::to_vec);
     if classes.is_empty() {
-        return Err(TrainError::NoInput {
+        return Err(EvalError::NoInput {
             dir: dir.to_path_buf(),
             what: "Car, Pedestrian or Cyclist detection (name the classes to score)".into(),
         });
     }
     let mut scorer = Scorer::new(&classes, dataset.labels(), None);
-    let bar = progress_bar(ids.len() as u64, "score");
+    let task = Task::begin("score", ids.len() as u64);
     for (id, result) in ids.iter().zip(results) {
         let frame = dataset.load(id)?;
         match result {
             FrameResults::Kitti(objects) => scorer.add_results(frame, &objects)?,
             FrameResults::Detect(sweep) => scorer.add(frame, &detections_of(&sweep, &classes))?,
         }
-        bar.inc(1);
+        task.inc(1);
     }
-    bar.finish_and_clear();
     Ok(scorer.finish())
 }
 

@@ -2,6 +2,7 @@
 
 use crate::Result;
 use crate::render::{LinePlot, Series};
+use starnet_data::events::note;
 use starnet_data::kitti::{KittiDataset, ObjectClass};
 use starnet_data::sampling::{CenterPoolConfig, CoverageConfig, CoverageTable, Sampler, coverage};
 use std::path::Path;
@@ -29,7 +30,7 @@ pub fn paper_coverage(
     }
 }
 
-/// Measures coverage on `data` (optionally one split), prints the table and writes a PNG plot.
+/// Measures coverage on `data` (optionally one split), reports the table and writes a PNG plot.
 pub fn run_coverage(
     data: &Path,
     split: Option<&str>,
@@ -40,7 +41,8 @@ pub fn run_coverage(
     let ds = KittiDataset::open(data, split)?;
     let samples = &cfg.samples;
     let table = coverage(&ds, cfg, seed)?;
-    print!("{table}");
+    let text = table.to_string();
+    note(text.strip_suffix('\n').unwrap_or(&text));
     let chart = LinePlot {
         title: format!("Object coverage, {} objects with ≥ 5 points", table.objects),
         x_label: "centers per frame".into(),
@@ -57,6 +59,6 @@ pub fn run_coverage(
         y_range: Some((0.0, 100.0)),
     };
     chart.render()?.save_png(plot)?;
-    println!("wrote {}", plot.display());
+    note(format!("wrote {}", plot.display()));
     Ok(table)
 }

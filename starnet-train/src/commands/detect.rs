@@ -8,38 +8,12 @@
 //! sensor (no camera frustum) and only the JSON is written.
 
 use crate::detector::Detector;
-use crate::eval::to_kitti;
-use crate::train::frame_seed;
+use crate::evaluate::frame_seed;
 use crate::{Result, TrainError};
-use serde::{Deserialize, Serialize};
 use starnet_data::io::atomic_write;
-use starnet_data::kitti::{Calib, Frame, ImageSize, ObjectClass, read_points, write_results};
+use starnet_data::kitti::{Calib, Frame, ImageSize, read_points, write_results};
+use starnet_eval::{DetectedBox, SweepDetections, to_kitti};
 use std::path::{Path, PathBuf};
-
-/// One detected box.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DetectedBox {
-    /// Class.
-    pub class: ObjectClass,
-    /// Score in [0, 1].
-    pub score: f32,
-    /// `[x, y, z, dx, dy, dz, heading]`, LiDAR frame.
-    #[serde(rename = "box")]
-    pub b: [f32; 7],
-}
-
-/// The detections of one sweep.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SweepDetections {
-    /// Sweep id (the file stem).
-    pub id: String,
-    /// Points in the sweep.
-    pub num_points: usize,
-    /// Whether a calibration was found (and KITTI result lines written).
-    pub calibrated: bool,
-    /// Boxes, best first.
-    pub detections: Vec<DetectedBox>,
-}
 
 /// The `.bin` files of `input`: the file itself, or a folder's `.bin` files by name.
 pub fn sweep_files(input: &Path) -> Result<Vec<PathBuf>> {
