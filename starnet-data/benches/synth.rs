@@ -6,7 +6,8 @@
 //! ```
 
 use starnet_data::kitti::Calib;
-use starnet_data::sim::{SynthConfig, World, simulate_frame, sub_seed, synth_frames};
+use starnet_data::seed::sub_seed;
+use starnet_data::sim::{SynthConfig, World, simulate_frame, synth_frames};
 use std::time::Instant;
 
 fn median(mut v: Vec<f64>) -> f64 {

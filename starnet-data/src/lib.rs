@@ -46,6 +46,7 @@ pub mod loader;
 mod par;
 pub mod realism;
 pub mod sampling;
+pub mod seed;
 pub mod settings;
 pub mod sim;
 pub mod summary;

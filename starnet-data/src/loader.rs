@@ -5,7 +5,7 @@
 //! workers. At most `prefetch` items are in flight, which bounds memory.
 
 use crate::Result;
-use crate::sim::sub_seed;
+use crate::seed::sub_seed;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::collections::BTreeMap;

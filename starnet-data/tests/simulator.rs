@@ -2,10 +2,11 @@
 //! rewrite byte for byte, a seed fixes the bytes, and labels agree with the points and with
 //! the camera.
 
-use starnet_data::kitti::{Calib, KittiDataset, ObjectClass, format_labels, observation_angle, parse_labels};
+use starnet_data::kitti::{
+    Calib, KittiDataset, ObjectClass, format_labels, observation_angle, parse_labels, read_sidecar,
+};
 use starnet_data::sim::{
-    SIMULATOR_VERSION, SynthConfig, generated_version, read_sidecar, simulate_scene_frame, synth_frames,
-    synth_sequences,
+    SIMULATOR_VERSION, SynthConfig, generated_version, simulate_scene_frame, synth_frames, synth_sequences,
 };
 use starnet_data::wrap_angle;
 use std::collections::BTreeMap;

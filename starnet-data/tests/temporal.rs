@@ -5,7 +5,9 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::geometry::{Pose, read_poses, wrap_angle};
-use starnet_data::sim::{SynthConfig, World, read_sidecar, sub_seed, synth_sequences};
+use starnet_data::kitti::read_sidecar;
+use starnet_data::seed::sub_seed;
+use starnet_data::sim::{SynthConfig, World, synth_sequences};
 
 #[test]
 fn pose_correction_maps_static_boxes_onto_the_next_frame() {

@@ -194,7 +194,7 @@ mod tests {
                 num_points: 2,
                 features: (0..2 * 2 * NUM_FEATURES).map(|i| base + i as f32).collect(),
                 mask: vec![true, false, true, true],
-                indices: vec![0, u32::MAX, 1, 2],
+                indices: vec![Some(0), None, Some(1), Some(2)],
             },
             boxes: Vec::new(),
             classes: Vec::new(),

@@ -14,6 +14,7 @@ pub mod backend;
 pub mod batch;
 pub mod coder;
 pub mod export;
+mod flex_data;
 pub mod flops;
 pub mod loss;
 pub mod nms;

@@ -7,7 +7,7 @@ use crate::config::ExperimentConfig;
 use crate::detector::Detector;
 use starnet_data::events::Task;
 use starnet_data::kitti::KittiDataset;
-use starnet_data::sim::sub_seed;
+use starnet_data::seed::sub_seed;
 use starnet_data::summary::{mean, quantile};
 use starnet_eval::{EvalReport, Scorer, Scores};
 use std::path::Path;

@@ -8,8 +8,9 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::GtDatabase;
+use starnet_data::kitti::parse_sidecar;
 use starnet_data::kitti::{Calib, KittiDataset, decode_points, encode_points, format_labels, parse_labels};
-use starnet_data::sim::{SynthConfig, parse_sidecar, simulate_scene_frame};
+use starnet_data::sim::{SynthConfig, simulate_scene_frame};
 use std::path::{Path, PathBuf};
 
 /// Runs a parser on an input; returns whether it accepted it.

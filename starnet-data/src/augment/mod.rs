@@ -20,16 +20,16 @@ pub use transforms::{Scene, flip_y, rotate_box, rotate_boxes, rotate_z, scale, s
 const NEAR_CELL_M: f32 = 2.0;
 
 /// A grid of `points` for [`points_near`].
-fn near_grid(points: &[Point]) -> crate::sampling::SpatialGrid {
-    crate::sampling::SpatialGrid::new(points, NEAR_CELL_M)
+fn near_grid(points: &[Point]) -> crate::geometry::SpatialGrid {
+    crate::geometry::SpatialGrid::new(points, NEAR_CELL_M)
 }
 
 /// Replaces `out` with the indices of the gridded points (at their positions when gridded)
 /// that `b`'s point test can hold: those within its bird's-eye circle, with a margin.
-fn points_near(grid: &crate::sampling::SpatialGrid, b: &crate::Box3d, out: &mut Vec<u32>) {
+fn points_near(grid: &crate::geometry::SpatialGrid, b: &crate::Box3d, out: &mut Vec<u32>) {
     out.clear();
     let r = b.bev_radius() + 0.01;
-    grid.within([b.x, b.y, 0.0], r, crate::sampling::GatherMetric::Cylinder, out);
+    grid.within([b.x, b.y, 0.0], r, crate::geometry::GatherMetric::Cylinder, out);
 }
 
 use crate::Point;

@@ -4,12 +4,14 @@
 
 mod box3d;
 mod detection;
+mod grid;
 mod iou;
 mod polygon;
 mod pose;
 
 pub use box3d::{Box3d, wrap_angle};
 pub use detection::Detection;
+pub use grid::{GatherMetric, SpatialGrid};
 pub use iou::{
     IouKind, PreparedBox, iou_3d, iou_3d_prepared, iou_bev, iou_bev_prepared, iou_bev_upper_bound, iou_matrix,
 };

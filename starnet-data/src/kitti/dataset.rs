@@ -2,8 +2,8 @@
 //! and `ROOT/ImageSets/*.txt`; with the simulator's data, `label_360/` may stand in for
 //! `label_2/` (every object around the sensor, not only the camera's view).
 
+use super::sidecar::read_sidecar;
 use super::{Calib, ImageSize, KittiObject, ObjectClass, observation_angle, read_labels, read_points, read_split};
-use crate::sim::read_sidecar;
 use crate::{Box3d, DataError, Point, Result};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};

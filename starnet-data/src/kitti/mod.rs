@@ -7,6 +7,7 @@ mod calib;
 mod camera;
 mod dataset;
 mod label;
+mod sidecar;
 mod split;
 mod velodyne;
 
@@ -17,5 +18,6 @@ pub use label::{
     CameraBox, Difficulty, KittiObject, ObjectClass, format_labels, parse_labels, read_labels, write_labels,
     write_results,
 };
+pub use sidecar::{SimObject, parse_sidecar, read_sidecar, write_sidecar};
 pub use split::{parse_split, read_split, write_split};
 pub use velodyne::{decode_points, encode_points, read_points, write_points};

@@ -2,7 +2,7 @@
 //! planar (walls, road), measured on the covariance of each sampled point's neighbours.
 
 use crate::Point;
-use crate::sampling::{GatherMetric, SpatialGrid};
+use crate::geometry::{GatherMetric, SpatialGrid};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 /// Neighbourhood radius, metres.

@@ -10,7 +10,7 @@ use crate::Result;
 use crate::geometry::iou_bev;
 use crate::kitti::{KittiDataset, ObjectClass};
 use crate::par::parallel_for;
-use crate::sim::sub_seed;
+use crate::seed::sub_seed;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::sync::Mutex;

@@ -6,6 +6,7 @@
 
 use super::Centers;
 use crate::Point;
+use crate::geometry::{GatherMetric, SpatialGrid};
 use crate::settings::{Checked, at_least_one, positive};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -35,34 +36,11 @@ impl ReflectanceInput {
     }
 }
 
-/// How the distance from a center is measured.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum GatherMetric {
-    /// 3D distance: a ball (the paper's).
-    #[default]
-    Ball,
-    /// Distance in bird's-eye view (x, y): a vertical cylinder. Centers sit at z = 0 by default,
-    /// about 1 m above a car's middle, so a ball of radius R reaches only about 0.9 R sideways
-    /// at car height; the cylinder reaches R at every height.
-    Cylinder,
-}
-
 impl GatherConfig {
     /// Checks P ≥ 1 and R > 0 (keys relative to the gather table).
     pub fn validate(&self) -> Checked {
         at_least_one("num_points", self.num_points)?;
         positive("radius", self.radius as f64)
-    }
-}
-
-impl GatherMetric {
-    /// Squared distance of offset `(dx, dy, dz)`.
-    pub fn distance2(self, dx: f32, dy: f32, dz: f32) -> f32 {
-        match self {
-            Self::Ball => dx * dx + dy * dy + dz * dz,
-            Self::Cylinder => dx * dx + dy * dy,
-        }
     }
 }
 
@@ -93,8 +71,8 @@ pub struct Neighbourhoods {
     pub features: Vec<f32>,
     /// `[C, P]`, true for real points.
     pub mask: Vec<bool>,
-    /// `[C, P]` indices into the cloud, `u32::MAX` in padded slots.
-    pub indices: Vec<u32>,
+    /// `[C, P]` indices into the cloud, `None` in padded slots.
+    pub indices: Vec<Option<u32>>,
 }
 
 impl Neighbourhoods {
@@ -104,103 +82,6 @@ impl Neighbourhoods {
             .iter()
             .filter(|m| **m)
             .count()
-    }
-}
-
-/// Points bucketed by (x, y) cell in a dense grid over the cloud's extent, copied into cell
-/// order so a query reads contiguous memory.
-#[derive(Debug, Clone)]
-pub struct SpatialGrid {
-    cell: f32,
-    origin: [f32; 2],
-    dims: [usize; 2],
-    /// Cell `c` holds `sorted[starts[c]..starts[c + 1]]`.
-    starts: Vec<u32>,
-    /// The points in cell order, and their indices in the original cloud.
-    sorted: Vec<Point>,
-    order: Vec<u32>,
-}
-
-impl SpatialGrid {
-    /// Buckets `points` into square cells of side `cell` (a counting sort).
-    pub fn new(points: &[Point], cell: f32) -> Self {
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for p in points {
-            for a in 0..2 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-        if points.is_empty() {
-            (lo, hi) = ([0.0; 2], [0.0; 2]);
-        }
-        let dims = [
-            ((hi[0] - lo[0]) / cell) as usize + 1,
-            ((hi[1] - lo[1]) / cell) as usize + 1,
-        ];
-        let cell_of = |p: &Point| {
-            (((p[0] - lo[0]) / cell) as usize).min(dims[0] - 1) * dims[1]
-                + (((p[1] - lo[1]) / cell) as usize).min(dims[1] - 1)
-        };
-        let mut starts = vec![0u32; dims[0] * dims[1] + 1];
-        let cells: Vec<usize> = points.iter().map(cell_of).collect();
-        cells.iter().for_each(|&c| starts[c + 1] += 1);
-        for c in 1..starts.len() {
-            starts[c] += starts[c - 1];
-        }
-        let mut fill = starts.clone();
-        let mut order = vec![0u32; points.len()];
-        for (i, &c) in cells.iter().enumerate() {
-            order[fill[c] as usize] = i as u32;
-            fill[c] += 1;
-        }
-        let sorted = order.iter().map(|&i| points[i as usize]).collect();
-        Self {
-            cell,
-            origin: lo,
-            dims,
-            starts,
-            sorted,
-            order,
-        }
-    }
-
-    /// Appends to `out` the indices of the points within `radius` of `c` by `metric`, in a
-    /// fixed order.
-    pub fn within(&self, c: [f32; 3], radius: f32, metric: GatherMetric, out: &mut Vec<u32>) {
-        let r2 = radius * radius;
-        let range = |a: usize| {
-            let lo = ((c[a] - radius - self.origin[a]) / self.cell).floor().max(0.0) as usize;
-            let hi = ((c[a] + radius - self.origin[a]) / self.cell).floor();
-            (
-                lo,
-                if hi < 0.0 {
-                    None
-                } else {
-                    Some((hi as usize).min(self.dims[a] - 1))
-                },
-            )
-        };
-        let ((x0, Some(x1)), (y0, Some(y1))) = (range(0), range(1)) else {
-            return;
-        };
-        // A query beyond the grid's extent on either side touches no cell (centers can lie
-        // outside it: the ring dropout runs after center selection and may remove the extremes).
-        if y0 > y1 {
-            return;
-        }
-        for gx in x0..=x1 {
-            let row = gx * self.dims[1];
-            let (s, e) = (self.starts[row + y0] as usize, self.starts[row + y1 + 1] as usize);
-            // Cells y0..=y1 of one grid row are contiguous in `sorted`.
-            for k in s..e {
-                let p = &self.sorted[k];
-                let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
-                if metric.distance2(dx, dy, dz) <= r2 {
-                    out.push(self.order[k]);
-                }
-            }
-        }
     }
 }
 
@@ -225,7 +106,7 @@ pub fn gather_with_grid(
         num_points: p_n,
         features: vec![0.0; c_n * p_n * NUM_FEATURES],
         mask: vec![false; c_n * p_n],
-        indices: vec![u32::MAX; c_n * p_n],
+        indices: vec![None; c_n * p_n],
     };
     let mut candidates = Vec::new();
     for (c, center) in centers.xyz.iter().enumerate() {
@@ -241,7 +122,7 @@ pub fn gather_with_grid(
             let p = &points[pi as usize];
             let at = c * p_n + slot;
             out.mask[at] = true;
-            out.indices[at] = pi;
+            out.indices[at] = Some(pi);
             out.features[at * NUM_FEATURES..(at + 1) * NUM_FEATURES].copy_from_slice(&[
                 p[0] - center[0],
                 p[1] - center[1],
@@ -359,7 +240,7 @@ mod tests {
             assert_eq!(n.count(c), all.len().min(32), "center {c}");
             let mut idx: Vec<u32> = (0..32)
                 .filter(|&s| n.mask[c * 32 + s])
-                .map(|s| n.indices[c * 32 + s])
+                .filter_map(|s| n.indices[c * 32 + s])
                 .collect();
             for (s, &i) in idx.iter().enumerate() {
                 let f = &n.features[(c * 32 + s) * 4..(c * 32 + s + 1) * 4];
@@ -426,7 +307,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         for _ in 0..4000 {
             let n = gather(&pts, &centers, &cfg, &mut rng);
-            n.indices.iter().for_each(|&i| hits[i as usize] += 1);
+            n.indices.iter().flatten().for_each(|&i| hits[i as usize] += 1);
         }
         assert!(hits.iter().all(|&h| (1800..2200).contains(&h)), "{hits:?}");
     }

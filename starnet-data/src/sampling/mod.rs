@@ -15,9 +15,9 @@ mod target;
 pub use anchors::{AnchorGrid, AnchorPrior};
 pub use centers::{CenterZ, Centers, Sampler, sample_centers};
 pub use coverage::{CoverageConfig, CoverageTable, coverage};
-pub use gather::{
-    GatherConfig, GatherMetric, NUM_FEATURES, Neighbourhoods, ReflectanceInput, SpatialGrid, gather, gather_with_grid,
-};
+// The metric and the grid are geometry's; re-exported here beside the gathering that uses them.
+pub use crate::geometry::{GatherMetric, SpatialGrid};
+pub use gather::{GatherConfig, NUM_FEATURES, Neighbourhoods, ReflectanceInput, gather, gather_with_grid};
 pub use pool::{CenterPoolConfig, center_pool, z_band_from_labels};
 pub use prepare::{Augmentation, PipelineConfig, PreparedFrame, prepare_frame};
 pub use slices::{SliceConfig, centers_per_slice, prepare_slice, prepare_sweep, slice_points, slice_rng};

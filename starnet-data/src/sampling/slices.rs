@@ -11,8 +11,8 @@
 use super::{Augmentation, Centers, PipelineConfig, PreparedFrame, center_pool, gather, sample_centers};
 use crate::augment::{augment, ring_dropout};
 use crate::kitti::{Frame, ObjectClass};
+use crate::seed::sub_seed;
 use crate::settings::{Checked, within};
-use crate::sim::sub_seed;
 use crate::{Box3d, Point};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -278,7 +278,8 @@ mod tests {
                         .neighbourhoods
                         .indices
                         .iter()
-                        .all(|&i| i == u32::MAX || (i as usize) < slice.points.len())
+                        .flatten()
+                        .all(|&i| (i as usize) < slice.points.len())
                 );
                 assert!(slice.centers.xyz.iter().all(|c| slicing.slice_of(c[0], c[1], n) == s));
             }

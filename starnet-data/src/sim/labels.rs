@@ -3,7 +3,7 @@
 //! (2D box, truncation, alpha). `label_2` keeps KITTI's convention — objects visible in image 2
 //! only, far ones as DontCare regions, DontCare last — while the sidecar keeps every object.
 
-use super::SimObject;
+use crate::kitti::SimObject;
 use crate::kitti::{Calib, ImageSize, KittiObject, ObjectClass, observation_angle};
 
 /// Occlusion level from the share of an object's rays that something else blocked, KITTI's

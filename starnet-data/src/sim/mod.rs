@@ -7,6 +7,7 @@
 //! follow the KITTI statistics of `kitti-format.md` §2. Occlusion comes from the ray casting;
 //! truncation, the 2D box and alpha from projecting through a real KITTI calibration.
 
+mod actor;
 mod actors;
 mod annotation;
 mod intensity;
@@ -16,12 +17,12 @@ mod raycast;
 mod scenery;
 mod sensor;
 mod shapes;
-mod sidecar;
 mod stats;
 mod street;
 mod synth;
 mod world;
 
+pub use actor::Actor;
 pub use actors::{Part, build_parts, sample_size, size_stats, tight_box};
 pub use annotation::AnnotationMargin;
 pub use intensity::{Finish, IntensityModel, Surface};
@@ -30,11 +31,10 @@ pub use raycast::{Primitive, Scan, Terrain, scan};
 pub use scenery::Scenery;
 pub use sensor::{LidarConfig, hdl64_elevations};
 pub use shapes::{Ray, Shape};
-pub use sidecar::{SimObject, parse_sidecar, read_sidecar, write_sidecar};
 pub use stats::{DatasetStats, StatRow, dataset_stats};
 pub use street::{Ground, GroundView, Street};
 pub use synth::{
     SIMULATOR_VERSION, SynthConfig, SynthFrame, generated_version, pose_line, simulate_frame, simulate_scene_frame,
-    sub_seed, synth_frames, synth_sequences, write_frame,
+    synth_frames, synth_sequences, write_frame,
 };
-pub use world::{Actor, Moment, World};
+pub use world::{Moment, World};

@@ -6,9 +6,9 @@
 //! independently, for the rest of the turn, so the 360° sidecar is as busy as the labels.
 
 use super::AnnotationMargin;
+use super::actor::Actor;
 use super::actors::{build_parts, sample_size, tight_box};
 use super::street::Street;
-use super::world::Actor;
 use crate::geometry::iou_bev;
 use crate::kitti::ObjectClass;
 use crate::{Box3d, wrap_angle};

@@ -1,8 +1,8 @@
 //! `starnet synth --stats`: the statistics of a generated set beside KITTI's
 //! (`kitti-format.md` §2 and §4), so a user can see how far the simulator is from real data.
 
-use super::read_sidecar;
 use crate::Result;
+use crate::kitti::read_sidecar;
 use crate::kitti::{Difficulty, KittiDataset, ObjectClass};
 use std::f32::consts::PI;
 use std::fmt;

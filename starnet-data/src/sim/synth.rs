@@ -14,12 +14,14 @@
 //! work is spread over threads.
 
 use super::labels::{label_frame, occlusion_level};
-use super::{LidarConfig, SimObject, World, scan, write_sidecar};
+use super::{LidarConfig, World, scan};
 use crate::io::atomic_write;
 use crate::kitti::{
     Calib, Frame, ImageSize, KittiObject, ObjectClass, format_c_exp, format_labels, write_points, write_split,
 };
+use crate::kitti::{SimObject, write_sidecar};
 use crate::par::parallel_for;
+use crate::seed::sub_seed;
 use crate::{Point, Result};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -78,14 +80,6 @@ impl SynthFrame {
             image_size: ImageSize::KITTI,
         }
     }
-}
-
-/// SplitMix64 of `seed`, `stream` and `index`: independent, reproducible sub-seeds.
-pub fn sub_seed(seed: u64, stream: u64, index: u64) -> u64 {
-    let mut z = seed ^ stream.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
 }
 
 /// Frame `index` of `world`, with sensor noise drawn from `noise_seed`.

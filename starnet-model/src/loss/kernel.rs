@@ -9,7 +9,7 @@
 //! formulas. The forward keeps every term's slope (per logit, and per regressed anchor), so the
 //! backward only scales them and keeps neither the predictions nor the targets.
 
-use super::HeadingLoss;
+use super::heading::HeadingLoss;
 use rayon::prelude::*;
 
 /// Anchors per parallel chunk of the classification pass (fixed, for thread-independent sums).

@@ -11,24 +11,18 @@
 //! [`kernel`]) unless [`LossConfig::fused`] is off; [`starnet_loss_composed`] is the reference
 //! and the path on every other backend.
 
+mod heading;
 pub mod kernel;
 pub mod op;
+mod targets;
+
+pub use heading::HeadingLoss;
+pub use targets::LossTargets;
 
 use crate::nn::ModelOutput;
 use burn::prelude::*;
 use burn::tensor::activation::{relu, sigmoid};
-use serde::{Deserialize, Serialize};
 use starnet_data::settings::{Checked, non_negative, positive, within};
-
-/// How the heading residual is compared.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum HeadingLoss {
-    /// Huber(sin Δ): a box and its 180° turn cost the same.
-    Sin,
-    /// Huber(wrap Δ), Δ wrapped to [−π, π): the direction matters.
-    Wrap,
-}
 
 /// Loss settings (the authors' Waymo defaults); the `[loss]` section of an experiment config.
 #[derive(Config, Debug, PartialEq)]
@@ -102,21 +96,6 @@ impl LossConfig {
     pub fn class_weight(&self, k: usize) -> f64 {
         self.class_weights.get(k).copied().unwrap_or(1.0)
     }
-}
-
-/// Per-anchor targets of a batch, as tensors.
-#[derive(Debug, Clone)]
-pub struct LossTargets {
-    /// One-hot classes `[B, C, A, K]` (all zeros for background).
-    pub classes: Tensor<4>,
-    /// Classification weight `[B, C, A]`.
-    pub cls_weight: Tensor<3>,
-    /// Encoded residuals `[B, C, A, 7]`.
-    pub residuals: Tensor<4>,
-    /// Regression weight `[B, C, A]` (foreground only).
-    pub reg_weight: Tensor<3>,
-    /// Direction bin of the matched box `[B, C, A]` (0.0 or 1.0; see [`crate::coder`]).
-    pub direction: Tensor<3>,
 }
 
 /// Each term of the loss, reported separately.

@@ -3,10 +3,10 @@
 //! live elsewhere (another backend or dtype, a checkpointing strategy): the caller then takes
 //! the composed path.
 
-use super::LossTargets;
 use super::kernel::{self, KernelConfig, Predictions, Slopes, Targets, Terms};
+use super::targets::LossTargets;
+use crate::flex_data::values;
 use crate::nn::ModelOutput;
-use crate::nn::fused::op::values;
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;

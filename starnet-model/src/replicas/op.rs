@@ -3,7 +3,7 @@
 //! `Σ_r ∂L_r/∂y`: the backward is the same sum, of the gradients.
 
 use super::{current, sum};
-use crate::nn::fused::op::{flex, values};
+use crate::flex_data::{flex, values};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;

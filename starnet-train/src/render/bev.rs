@@ -11,9 +11,9 @@ use plotters::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::{AugmentConfig, GtDatabase, Scene, augment};
+use starnet_data::kitti::read_sidecar;
 use starnet_data::kitti::{Frame, KittiDataset, ObjectClass, read_labels};
 use starnet_data::sampling::{CenterPoolConfig, CenterZ, Centers, Sampler, center_pool, sample_centers};
-use starnet_data::sim::read_sidecar;
 use starnet_data::{Box3d, DataError, Point};
 use std::path::{Path, PathBuf};
 

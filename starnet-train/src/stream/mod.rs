@@ -4,11 +4,16 @@
 //! subtended angle, peak compute and the worst-case latency model. `starnet stream-eval` runs
 //! [`evaluate_stream`] over several slice counts and writes [`write_stream`]'s tables and plots.
 
+mod evaluate;
+mod ground_truth;
+mod model;
 mod report;
-mod run;
+mod runs;
+mod sweep;
 
-pub use report::{Latency, StreamRun, latency, replot_stream, stream_plots, stream_tables, write_stream};
-pub use run::{
-    ModeReport, ModeReports, NmsMode, StreamGroundTruth, StreamModel, StreamReport, StreamedSweep, evaluate_stream,
-    stream_runs, stream_sweep,
-};
+pub use evaluate::{ModeReport, ModeReports, StreamReport, evaluate_stream};
+pub use ground_truth::StreamGroundTruth;
+pub use model::StreamModel;
+pub use report::{Latency, latency, replot_stream, stream_plots, stream_tables, write_stream};
+pub use runs::{StreamRun, stream_runs};
+pub use sweep::{NmsMode, StreamedSweep, stream_sweep};

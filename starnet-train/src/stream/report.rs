@@ -3,29 +3,17 @@
 //! worst-case latency model (§4.4: scanning a slice at the LiDAR rate, then inferring on it,
 //! against a full rotation then a full-sweep inference), and their plots.
 
-use super::run::{NmsMode, StreamReport};
+use super::evaluate::StreamReport;
+use super::runs::StreamRun;
+use super::sweep::NmsMode;
 use crate::Result;
 use crate::render::{LinePlot, Series};
 use serde::{Deserialize, Serialize};
 use starnet_data::io::atomic_write;
-use starnet_data::kitti::ObjectClass;
 use starnet_eval::Table;
 use starnet_eval::metrics::ANGLE_BINS_DEG;
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// One model's reports, one per slice count (ascending; the first at n = 1).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct StreamRun {
-    /// A name for the model (its run folder).
-    pub label: String,
-    /// Classes, in the model's order.
-    pub classes: Vec<ObjectClass>,
-    /// LiDAR rotation rate, Hz.
-    pub scan_hz: f64,
-    /// Per slice count.
-    pub reports: Vec<StreamReport>,
-}
 
 impl StreamRun {
     /// The whole-sweep report (n = 1).

@@ -4,7 +4,8 @@
 //! operations.
 
 use super::head::{self, HeadDims, HeadParams};
-use super::op::{flex, register_parents, values};
+use super::op::register_parents;
+use crate::flex_data::{flex, values};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;

@@ -17,6 +17,7 @@
 //! each center by its real-point count, as the broadcast concat does).
 
 use super::gemm::{Mat, matmul_new, matmul_tn};
+pub use super::moments::BnStats;
 use super::moments::Moments;
 use super::packed::Packed;
 use super::rows::{add, col_sums, for_rows, map_chunks, relu, relu_passes};
@@ -49,15 +50,6 @@ pub struct BlockParams<'a> {
     pub w2: &'a [f32],
     /// Added to the variances.
     pub epsilon: f32,
-}
-
-/// Per-channel mean and biased variance of one BatchNorm.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BnStats {
-    /// Mean `[D]`.
-    pub mean: Vec<f32>,
-    /// Biased variance `[D]`.
-    pub var: Vec<f32>,
 }
 
 /// One block's two BatchNorms' statistics.

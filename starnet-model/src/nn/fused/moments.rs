@@ -3,8 +3,16 @@
 //! in row order by the parallel update of Chan, Golub and LeVeque, so a BatchNorm's batch
 //! statistics cost one pass over memory and do not depend on the number of threads.
 
-use super::kernel::BnStats;
 use super::rows::{add_scaled, read_chunks};
+
+/// Per-channel mean and biased variance of one BatchNorm.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BnStats {
+    /// Mean `[D]`.
+    pub mean: Vec<f32>,
+    /// Biased variance `[D]`.
+    pub var: Vec<f32>,
+}
 
 /// The weighted moments of some rows.
 #[derive(Debug, Clone, PartialEq)]

@@ -6,6 +6,7 @@
 
 use super::kernel::{self, BlockDims, BlockParams, BlockSaved, BlockStats, BnStats, Forward, Normalization};
 use super::packed::Packed;
+use crate::flex_data::{flex, values};
 use burn::backend::autodiff::NodeId;
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
@@ -14,7 +15,7 @@ use burn::backend::autodiff::ops::{Backward, Ops, OpsKind};
 use burn::backend::flex::FlexTensor;
 use burn::backend::{Autodiff, Flex};
 use burn::prelude::*;
-use burn::tensor::{DType, TensorData};
+use burn::tensor::DType;
 use std::borrow::Cow;
 use std::sync::Arc;
 
@@ -44,18 +45,6 @@ pub struct TrainOutput {
     pub out: Tensor<3>,
     /// The batch statistics.
     pub stats: BlockStats,
-}
-
-/// A contiguous f32 view of a flex tensor, copying only if it is strided.
-pub(crate) fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
-    match t.as_slice::<f32>() {
-        Some(s) => Cow::Borrowed(s),
-        None => Cow::Owned(t.to_contiguous().into_data().iter::<f32>().collect()),
-    }
-}
-
-pub(crate) fn flex(values: Vec<f32>, shape: Vec<usize>) -> FlexTensor {
-    FlexTensor::from_data(TensorData::new(values, shape))
 }
 
 /// Registers the gradient of each tracked parent (`parents`: their ids, `None` where a parent

@@ -6,9 +6,10 @@
 //! elsewhere, and the caller then takes the block-by-block path.
 
 use super::kernel::{BlockParams, BlockStats, Normalization};
-use super::op::{ParamTensors, flex, values};
+use super::op::ParamTensors;
 use super::packed::Packed;
 use super::stack::{self, StackDims, StackGrads, StackParams, StackSaved};
+use crate::flex_data::{flex, values};
 use burn::backend::autodiff::checkpoint::base::Checkpointer;
 use burn::backend::autodiff::checkpoint::strategy::NoCheckpointing;
 use burn::backend::autodiff::grads::Gradients;

@@ -13,8 +13,8 @@
 //! `num_points` the LiDAR returns on the object; `occluded` KITTI's level 0–3 from the ray
 //! casting; `in_camera` 1 if the object has a `label_2` line (as itself or as DontCare).
 
+use super::ObjectClass;
 use crate::io::{atomic_write, read_text};
-use crate::kitti::ObjectClass;
 use crate::{Box3d, DataError, Result};
 use std::path::Path;
 
