@@ -6,7 +6,7 @@
 //! cargo bench -p starnet-model --bench gemm
 //! ```
 
-use starnet_model::nn::fused::{Mat, matmul, matmul_tn};
+use starnet_model::nn::fused::{Mat, Op, Write, matmul, matmul_tn};
 use std::time::Instant;
 
 fn median_ms(mut f: impl FnMut()) -> f64 {
@@ -20,6 +20,11 @@ fn median_ms(mut f: impl FnMut()) -> f64 {
         .collect();
     v.sort_by(f64::total_cmp);
     v[2]
+}
+
+/// The product's reading of a matrix named by the bench's `(ta, tb)` flags.
+fn op(transposed: bool) -> Op {
+    if transposed { Op::T } else { Op::N }
 }
 
 fn main() {
@@ -48,7 +53,7 @@ fn main() {
             Mat::new(&src[..k * n], k, n)
         };
         let mut c = vec![0.0; m * n];
-        let ms = median_ms(|| matmul(&mut c, a, ta, b, tb, false));
+        let ms = median_ms(|| matmul(&mut c, a, op(ta), b, op(tb), Write::Overwrite));
         let gflop = 2.0 * (m * k * n) as f64 / 1e9;
         println!("| {name} | ({m}, {k}, {n}) | {ms:.1} | {:.1} |", gflop / ms * 1e3);
         if ta && !tb {

@@ -67,10 +67,10 @@ impl AssignConfig {
 /// Targets of the `C · A` anchors of one frame (center-major, like the anchors).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnchorTargets {
-    /// Per anchor: the matched object's class index for foreground, −1 otherwise.
-    pub class: Vec<i32>,
-    /// Per anchor: the matched object, −1 if none.
-    pub matched: Vec<i32>,
+    /// Per anchor: the matched object's class index for foreground, `None` otherwise.
+    pub class: Vec<Option<usize>>,
+    /// Per anchor: the matched object, `None` if none.
+    pub matched: Vec<Option<usize>>,
     /// Per anchor: classification weight (0 when ignored or at an invalid center).
     pub cls_weight: Vec<f32>,
     /// Per anchor: regression weight (foreground only).
@@ -85,7 +85,7 @@ pub struct AnchorTargets {
 impl AnchorTargets {
     /// Number of foreground anchors.
     pub fn num_foreground(&self) -> usize {
-        self.class.iter().filter(|c| **c >= 0).count()
+        self.class.iter().flatten().count()
     }
 }
 
@@ -105,25 +105,22 @@ pub fn assign_targets(
         per_anchor: best,
         per_object: best_anchor,
     } = best_overlaps(anchors, a, boxes, cfg.fg_iou.min(cfg.bg_iou));
-    let mut matched: Vec<i32> = best
-        .iter()
-        .map(|&(j, iou)| if iou >= cfg.fg_iou { j } else { -1 })
-        .collect();
-    let mut ignored: Vec<bool> = best
-        .iter()
-        .map(|&(_, iou)| iou >= cfg.bg_iou && iou < cfg.fg_iou)
-        .collect();
+    let mut matched: Vec<Option<usize>> = best.iter().map(|b| b.of.filter(|_| b.iou >= cfg.fg_iou)).collect();
+    let mut ignored: Vec<bool> = best.iter().map(|b| b.iou >= cfg.bg_iou && b.iou < cfg.fg_iou).collect();
     if cfg.force_match {
-        for (j, &(i, iou)) in best_anchor.iter().enumerate() {
-            let has_fg = matched.contains(&(j as i32));
-            if !has_fg && iou > 0.0 && matched[i] < 0 {
-                matched[i] = j as i32;
+        for (j, b) in best_anchor.iter().enumerate() {
+            let has_fg = matched.contains(&Some(j));
+            if let Some(i) = b.of
+                && !has_fg
+                && matched[i].is_none()
+            {
+                matched[i] = Some(j);
                 ignored[i] = false;
             }
         }
     }
     let mut out = AnchorTargets {
-        class: vec![-1; n],
+        class: vec![None; n],
         matched: matched.clone(),
         cls_weight: vec![0.0; n],
         reg_weight: vec![0.0; n],
@@ -132,15 +129,15 @@ pub fn assign_targets(
     };
     for c in 0..c_n {
         if !valid.get(c).copied().unwrap_or(true) {
-            out.matched[c * a..(c + 1) * a].fill(-1);
+            out.matched[c * a..(c + 1) * a].fill(None);
             continue;
         }
         let range = c * a..(c + 1) * a;
-        let fg = matched[range.clone()].iter().filter(|m| **m >= 0).count();
+        let fg = matched[range.clone()].iter().flatten().count();
         let w = 1.0 / (c_n as f32 * fg.max(1) as f32);
         for i in range {
-            if let Ok(j) = usize::try_from(matched[i]) {
-                out.class[i] = classes[j] as i32;
+            if let Some(j) = matched[i] {
+                out.class[i] = Some(classes[j]);
                 out.reg_weight[i] = w;
                 out.cls_weight[i] = w;
                 out.residuals[i] = encode(&boxes[j], &anchors[i]);
@@ -154,21 +151,40 @@ pub fn assign_targets(
 }
 
 /// Each anchor's best object and each object's best anchor by rotated BEV IoU (the first on
-/// ties; `(-1, 0)` and `(usize::MAX, 0)` where every IoU is 0). An anchor's is exact where it
-/// reaches the assignment's `floor` (the lower of its two thresholds) and below `floor`
-/// otherwise: below both thresholds, which object it is and how far below do not matter.
+/// ties; none where every IoU is 0). An anchor's is exact where it reaches the assignment's
+/// `floor` (the lower of its two thresholds) and below `floor` otherwise: below both
+/// thresholds, which object it is and how far below do not matter.
 #[derive(Debug, Clone, PartialEq)]
 struct BestOverlaps {
-    per_anchor: Vec<(i32, f32)>,
-    per_object: Vec<(usize, f32)>,
+    per_anchor: Vec<Best>,
+    per_object: Vec<Best>,
+}
+
+/// The best partner so far (an object of an anchor, or an anchor of an object) and its IoU.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Best {
+    /// `None` while every IoU is 0.
+    of: Option<usize>,
+    iou: f32,
+}
+
+impl Best {
+    const NONE: Self = Self { of: None, iou: 0.0 };
+
+    /// Takes `of` when `iou` beats the best so far (strictly: the first wins ties).
+    fn offer(&mut self, of: usize, iou: f32) {
+        if iou > self.iou {
+            *self = Self { of: Some(of), iou };
+        }
+    }
 }
 
 /// [`BestOverlaps`] of `anchors` (center-major, `a` per center) and `boxes`.
 fn best_overlaps(anchors: &[Box3d], a: usize, boxes: &[Box3d], floor: f32) -> BestOverlaps {
     let a = a.max(1);
     let mut best = BestOverlaps {
-        per_anchor: vec![(-1, 0.0); anchors.len()],
-        per_object: vec![(usize::MAX, 0.0); boxes.len()],
+        per_anchor: vec![Best::NONE; anchors.len()],
+        per_object: vec![Best::NONE; boxes.len()],
     };
     // Corners and circles once per box, not once per pair: this loop is most of the loader's
     // assignment time. A pair of IoU 0 changes nothing (every comparison is strict), so a
@@ -187,16 +203,12 @@ fn best_overlaps(anchors: &[Box3d], a: usize, boxes: &[Box3d], floor: f32) -> Be
                 // so far changes neither: no clip for it (most pairs, once an object has met
                 // its first well-placed anchor).
                 let bound = iou_bev_upper_bound(&an, &prepared[j]);
-                if bound < floor && bound <= best.per_object[j].1 {
+                if bound < floor && bound <= best.per_object[j].iou {
                     continue;
                 }
                 let iou = iou_bev_prepared(&an, &prepared[j]);
-                if iou > best.per_anchor[i].1 {
-                    best.per_anchor[i] = (j as i32, iou);
-                }
-                if iou > best.per_object[j].1 {
-                    best.per_object[j] = (i, iou);
-                }
+                best.per_anchor[i].offer(j, iou);
+                best.per_object[j].offer(i, iou);
             }
         }
     }
@@ -229,18 +241,14 @@ mod tests {
     /// The definition, every pair: the pruned [`best_overlaps`] must equal it exactly.
     fn best_overlaps_of_every_pair(anchors: &[Box3d], boxes: &[Box3d]) -> BestOverlaps {
         let mut best = BestOverlaps {
-            per_anchor: vec![(-1, 0.0); anchors.len()],
-            per_object: vec![(usize::MAX, 0.0); boxes.len()],
+            per_anchor: vec![Best::NONE; anchors.len()],
+            per_object: vec![Best::NONE; boxes.len()],
         };
         for (i, an) in anchors.iter().enumerate() {
             for (j, b) in boxes.iter().enumerate() {
                 let iou = iou_bev(an, b);
-                if iou > best.per_anchor[i].1 {
-                    best.per_anchor[i] = (j as i32, iou);
-                }
-                if iou > best.per_object[j].1 {
-                    best.per_object[j] = (i, iou);
-                }
+                best.per_anchor[i].offer(j, iou);
+                best.per_object[j].offer(i, iou);
             }
         }
         best
@@ -276,7 +284,7 @@ mod tests {
             let an: Vec<Box3d> = centers.iter().flat_map(|c| grid.anchors_around(*c)).collect();
             let every = best_overlaps_of_every_pair(&an, &boxes);
             assert!(
-                every.per_anchor.iter().filter(|m| m.0 >= 0).count() > 50,
+                every.per_anchor.iter().filter(|m| m.of.is_some()).count() > 50,
                 "overlaps exist"
             );
             // Floor 0: nothing may be skipped but pairs of IoU 0, and the result is exact.
@@ -285,9 +293,9 @@ mod tests {
                 let pruned = best_overlaps(&an, grid.len(), &boxes, floor);
                 assert_eq!(pruned.per_object, every.per_object, "floor {floor}");
                 for (i, (p, e)) in pruned.per_anchor.iter().zip(&every.per_anchor).enumerate() {
-                    match e.1 >= floor {
+                    match e.iou >= floor {
                         true => assert_eq!(p, e, "anchor {i}"),
-                        false => assert!(p.1 < floor && p.1 <= e.1, "anchor {i}: {p:?} for {e:?}"),
+                        false => assert!(p.iou < floor && p.iou <= e.iou, "anchor {i}: {p:?} for {e:?}"),
                     }
                 }
                 assert!(
@@ -309,16 +317,16 @@ mod tests {
         // An object equal to the centre anchor (index 48): IoU 1 there.
         let car = an[48];
         let t = assign_targets(&an, a, &[true], &[car], &[0], &AssignConfig::default());
-        assert_eq!(t.class[48], 0);
+        assert_eq!(t.class[48], Some(0));
         assert!(t.residuals[48].iter().all(|r| r.abs() < 1e-6));
         // Heading 0 lies in direction bin 1; unmatched anchors carry 0.
         assert_eq!(car.heading, 0.0);
         assert_eq!(t.direction[48], 1);
-        assert!((0..an.len()).all(|i| t.class[i] == 0 || t.direction[i] == 0));
+        assert!((0..an.len()).all(|i| t.class[i] == Some(0) || t.direction[i] == 0));
         for (i, anchor) in an.iter().enumerate() {
             let iou = iou_bev(anchor, &car);
             match t.class[i] {
-                0 => assert!(iou >= 0.6, "{i}: fg at {iou}"),
+                Some(0) => assert!(iou >= 0.6, "{i}: fg at {iou}"),
                 _ if iou >= 0.45 => assert_eq!(t.cls_weight[i], 0.0, "{i}: IoU {iou} is in the ignore band"),
                 _ => assert!(t.cls_weight[i] > 0.0, "{i}: background at {iou}"),
             }
@@ -340,7 +348,7 @@ mod tests {
         let t = assign_targets(&an, a, &[true], &[ped], &[0], &AssignConfig::default());
         assert_eq!(
             (t.num_foreground(), t.class[best_i]),
-            (1, 0),
+            (1, Some(0)),
             "forced onto its best anchor"
         );
         let off = AssignConfig {
@@ -351,8 +359,8 @@ mod tests {
         // Condition 2: the best anchor is already foreground for another object.
         let car = an[best_i];
         let t = assign_targets(&an, a, &[true], &[car, ped], &[0, 1], &AssignConfig::default());
-        assert_eq!(t.matched[best_i], 0, "the car keeps its anchor");
-        assert!(!t.matched.contains(&1), "the pedestrian stays unmatched");
+        assert_eq!(t.matched[best_i], Some(0), "the car keeps its anchor");
+        assert!(!t.matched.contains(&Some(1)), "the pedestrian stays unmatched");
     }
 
     #[test]
@@ -378,7 +386,7 @@ mod tests {
     fn invalid_centers_carry_no_weight() {
         let (an, a) = anchors(&[[10.0, 0.0, 0.0], [10.0, 0.0, 0.0]]);
         let t = assign_targets(&an, a, &[true, false], &[an[48]], &[0], &AssignConfig::default());
-        assert!(t.cls_weight[a..].iter().all(|w| *w == 0.0) && t.class[a..].iter().all(|c| *c < 0));
-        assert!(t.class[48] == 0);
+        assert!(t.cls_weight[a..].iter().all(|w| *w == 0.0) && t.class[a..].iter().all(Option::is_none));
+        assert!(t.class[48] == Some(0));
     }
 }

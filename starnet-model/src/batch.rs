@@ -93,7 +93,7 @@ pub fn make_batch(
     let mut one_hot = vec![0.0; b * c * a * num_classes];
     let classes = targets.iter().flat_map(|t| &t.class);
     for (row, &k) in one_hot.chunks_mut(num_classes.max(1)).zip(classes) {
-        if let Some(hot) = usize::try_from(k).ok().and_then(|k| row.get_mut(k)) {
+        if let Some(hot) = k.and_then(|k| row.get_mut(k)) {
             *hot = 1.0;
         }
     }
@@ -203,12 +203,12 @@ mod tests {
     }
 
     /// Two anchors per center; anchor `i` of the frame has class `class[i]`.
-    fn targets(class: [i32; 4]) -> AnchorTargets {
+    fn targets(class: [Option<usize>; 4]) -> AnchorTargets {
         AnchorTargets {
             class: class.to_vec(),
             matched: class.to_vec(),
             cls_weight: vec![1.0, 0.5, 0.0, 1.0],
-            reg_weight: class.iter().map(|&k| f32::from(k >= 0)).collect(),
+            reg_weight: class.iter().map(|k| f32::from(u8::from(k.is_some()))).collect(),
             residuals: (0..4).map(|i| [i as f32; 7]).collect(),
             direction: vec![0, 1, 1, 0],
         }
@@ -221,7 +221,10 @@ mod tests {
     #[test]
     fn a_batch_stacks_frames_in_order_with_one_hot_classes() {
         let (f0, f1) = (frame(0.0), frame(100.0));
-        let (t0, t1) = (targets([-1, 0, 1, -1]), targets([1, 1, -1, 0]));
+        let (t0, t1) = (
+            targets([None, Some(0), Some(1), None]),
+            targets([Some(1), Some(1), None, Some(0)]),
+        );
         let b = make_batch(&[&f0, &f1], &[&t0, &t1], 2, &default_device());
         let (dims, points) = values(b.input.points);
         assert_eq!(dims, [2, 2, 2, NUM_FEATURES]);

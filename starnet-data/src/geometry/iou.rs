@@ -259,8 +259,10 @@ mod tests {
             max_err = max_err.max((iou_bev(&a, &b) as f64 - want).abs());
         }
         assert!(overlapping > 500, "the oracle test should mostly exercise overlaps");
-        eprintln!("max |iou - geo| = {max_err:e} over 1000 pairs, {overlapping} overlapping");
-        assert!(max_err <= 1e-4, "max |iou - geo| = {max_err}");
+        assert!(
+            max_err <= 1e-4,
+            "max |iou - geo| = {max_err:e} over 1000 pairs, {overlapping} overlapping"
+        );
     }
 
     proptest! {

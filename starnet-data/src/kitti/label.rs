@@ -109,6 +109,10 @@ impl Difficulty {
     }
 }
 
+/// The alpha of a line that gives none (DontCare regions; a result file whose detector has no
+/// orientation): the devkit computes AOS only when the first detection's alpha differs.
+pub const NO_ALPHA: f32 = -10.0;
+
 /// One line of a label or result file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct KittiObject {
@@ -135,7 +139,7 @@ impl KittiObject {
             class: ObjectClass::DontCare,
             truncated: -1.0,
             occluded: -1,
-            alpha: -10.0,
+            alpha: NO_ALPHA,
             bbox,
             cam: CameraBox {
                 h: -1.0,

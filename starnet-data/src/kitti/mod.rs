@@ -15,7 +15,7 @@ pub use calib::{Calib, KITTI_000000_CALIB, format_c_exp};
 pub use camera::{ImageSize, observation_angle};
 pub use dataset::{Frame, KittiDataset, LabelSource};
 pub use label::{
-    CameraBox, Difficulty, KittiObject, ObjectClass, format_labels, parse_labels, read_labels, write_labels,
+    CameraBox, Difficulty, KittiObject, NO_ALPHA, ObjectClass, format_labels, parse_labels, read_labels, write_labels,
     write_results,
 };
 pub use sidecar::{SimObject, parse_sidecar, read_sidecar, write_sidecar};

@@ -120,7 +120,7 @@ fn update(
         if dx * dx + dy * dy >= b.max && !forced {
             continue;
         }
-        let (arg, max) = update_and_argmax(
+        let far = update_and_argmax(
             &xs[b.start..b.end],
             &ys[b.start..b.end],
             &mut d[b.start..b.end],
@@ -128,19 +128,26 @@ fn update(
             cy,
             &order[b.start..b.end],
         );
-        (b.arg, b.max) = (b.start + arg, max);
+        (b.arg, b.max) = (b.start + far.pos, far.dist);
     }
 }
 
 /// The position of the largest distance over all blocks (lowest pool index on ties).
 fn argmax(blocks: &[Block], order: &[usize]) -> usize {
-    let mut best = (f32::NEG_INFINITY, usize::MAX, 0);
+    let mut best: Option<&Block> = None;
     for b in blocks {
-        if b.max > best.0 || (b.max == best.0 && order[b.arg] < best.1) {
-            best = (b.max, order[b.arg], b.arg);
+        if best.is_none_or(|w| b.max > w.max || (b.max == w.max && order[b.arg] < order[w.arg])) {
+            best = Some(b);
         }
     }
-    best.2
+    best.map_or(0, |b| b.arg)
+}
+
+/// The farthest point of a run: its position in the run and its distance².
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Farthest {
+    pos: usize,
+    dist: f32,
 }
 
 /// `d[i] = min(d[i], |p_i − c|²)` over all points, returning the position and value of the new
@@ -148,7 +155,7 @@ fn argmax(blocks: &[Block], order: &[usize]) -> usize {
 /// compiled twice — for the baseline CPU and for AVX2, chosen at run time. Both do the same
 /// f32 operations in the same order (Rust never fuses multiply-adds on its own), so the picks
 /// are identical on every machine.
-fn update_and_argmax(xs: &[f32], ys: &[f32], d: &mut [f32], cx: f32, cy: f32, ids: &[usize]) -> (usize, f32) {
+fn update_and_argmax(xs: &[f32], ys: &[f32], d: &mut [f32], cx: f32, cy: f32, ids: &[usize]) -> Farthest {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2, checked just above.
@@ -159,14 +166,14 @@ fn update_and_argmax(xs: &[f32], ys: &[f32], d: &mut [f32], cx: f32, cy: f32, id
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn update_and_argmax_avx2(xs: &[f32], ys: &[f32], d: &mut [f32], cx: f32, cy: f32, ids: &[usize]) -> (usize, f32) {
+fn update_and_argmax_avx2(xs: &[f32], ys: &[f32], d: &mut [f32], cx: f32, cy: f32, ids: &[usize]) -> Farthest {
     update_and_argmax_kernel(xs, ys, d, cx, cy, ids)
 }
 
 /// The kernel: 8 independent lanes of selects (no branches, no NaN-aware min/max), which the
 /// compiler turns into vector compares and blends.
 #[inline(always)]
-fn update_and_argmax_kernel(xs: &[f32], ys: &[f32], d: &mut [f32], cx: f32, cy: f32, ids: &[usize]) -> (usize, f32) {
+fn update_and_argmax_kernel(xs: &[f32], ys: &[f32], d: &mut [f32], cx: f32, cy: f32, ids: &[usize]) -> Farthest {
     const L: usize = 8;
     let (mut best, mut arg) = ([f32::NEG_INFINITY; L], [0u32; L]);
     let n = xs.len() / L * L;
@@ -187,19 +194,22 @@ fn update_and_argmax_kernel(xs: &[f32], ys: &[f32], d: &mut [f32], cx: f32, cy: 
         }
         base += L as u32;
     }
-    let mut out = (0usize, f32::NEG_INFINITY);
+    let mut out = Farthest {
+        pos: 0,
+        dist: f32::NEG_INFINITY,
+    };
     for l in 0..L {
         let i = arg[l] as usize;
-        if best[l] > out.1 || (best[l] == out.1 && ids[i] < ids[out.0]) {
-            out = (i, best[l]);
+        if best[l] > out.dist || (best[l] == out.dist && ids[i] < ids[out.pos]) {
+            out = Farthest { pos: i, dist: best[l] };
         }
     }
     for i in n..xs.len() {
         let (dx, dy) = (xs[i] - cx, ys[i] - cy);
         let e = dx * dx + dy * dy;
         d[i] = if e < d[i] { e } else { d[i] };
-        if d[i] > out.1 || (d[i] == out.1 && ids[i] < ids[out.0]) {
-            out = (i, d[i]);
+        if d[i] > out.dist || (d[i] == out.dist && ids[i] < ids[out.pos]) {
+            out = Farthest { pos: i, dist: d[i] };
         }
     }
     out

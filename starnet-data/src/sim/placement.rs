@@ -75,8 +75,18 @@ fn poisson(mean: f64, rng: &mut impl Rng) -> usize {
     }
 }
 
-/// A candidate pose: position, heading, speed along the heading.
+/// Which road a candidate pose's position is measured along.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Road {
+    /// The street: `y` is the lateral position, the distance then sets `x`.
+    Street,
+    /// The crossing street: `y` is the offset from its axis, the distance then sets `y`.
+    Crossing,
+}
+
+/// A candidate pose: the road it is on, position, heading, speed along the heading.
 struct Pose {
+    on: Road,
     x: f32,
     y: f32,
     heading: f32,
@@ -222,8 +232,8 @@ impl<'a> Placer<'a> {
     /// Moves a pose along the street (or along the crossing street) to the wanted distance.
     fn at_distance(&self, mut pose: Pose, d: f32, front: bool, rng: &mut impl Rng) -> Option<Pose> {
         let sign = if front { 1.0 } else { -1.0 };
-        if pose.x.is_nan() {
-            // A slot on the crossing street: x fixed, distance sets y.
+        if pose.on == Road::Crossing {
+            // x fixed by the crossing street, distance sets y.
             let (cx, _) = self.street.crossing?;
             pose.x = cx + pose.y;
             let yy = (d * d - pose.x * pose.x).max(0.0).sqrt();
@@ -252,7 +262,8 @@ impl<'a> Placer<'a> {
                 let lane = rng.random_range(-1.5f32..1.5) * s.lane_width;
                 let heading = if lane > 0.0 { FRAC_PI_2 } else { -FRAC_PI_2 } + jitter(rng, 5.0);
                 return Pose {
-                    x: f32::NAN,
+                    on: Road::Crossing,
+                    x: 0.0,
                     y: lane,
                     heading,
                     speed: if rng.random::<bool>() {
@@ -264,6 +275,7 @@ impl<'a> Placer<'a> {
             }
             let y = s.centre_y + rng.random_range(-1.0..1.0) * (s.half_width() - 1.0);
             return Pose {
+                on: Road::Street,
                 x: 0.0,
                 y,
                 heading: rng.random_range(-PI..PI),
@@ -276,6 +288,7 @@ impl<'a> Placer<'a> {
             let y = s.centre_y + side * (s.half_width() - 0.5 * s.parking);
             let heading = if side < 0.0 { 0.0 } else { PI } + if rng.random::<f32>() < 0.15 { PI } else { 0.0 };
             return Pose {
+                on: Road::Street,
                 x: 0.0,
                 y,
                 heading: wrap_angle(heading + jitter(rng, 4.0)),
@@ -286,6 +299,7 @@ impl<'a> Placer<'a> {
         let heading = if side < 0.0 { 0.0 } else { PI };
         let speed = self.lane_speed[(side > 0.0) as usize][lane];
         Pose {
+            on: Road::Street,
             x: 0.0,
             y: s.lane_y(side, lane),
             heading: wrap_angle(heading + jitter(rng, 2.0)),
@@ -312,6 +326,7 @@ impl<'a> Placer<'a> {
         };
         let walking = class == ObjectClass::Pedestrian && rng.random::<f32>() < 0.7;
         Pose {
+            on: Road::Street,
             x: 0.0,
             y,
             heading: wrap_angle(heading),
@@ -329,6 +344,7 @@ impl<'a> Placer<'a> {
             rng.random_range(-PI..PI)
         };
         Pose {
+            on: Road::Street,
             x: 0.0,
             y,
             heading: wrap_angle(heading + rng.random_range(-0.08..0.08)),

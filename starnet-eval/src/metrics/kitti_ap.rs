@@ -16,7 +16,7 @@
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::{iou_3d, iou_bev};
-use starnet_data::kitti::{Difficulty, KittiObject, ObjectClass};
+use starnet_data::kitti::{Difficulty, KittiObject, NO_ALPHA, ObjectClass};
 
 /// Which overlap the AP is computed on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -198,45 +198,41 @@ struct FrameData<'a> {
 struct Statistics {
     tp: usize,
     fp: usize,
-    /// Summed orientation similarity of the true positives (−1 without any box).
-    similarity: f64,
+    /// Summed orientation similarity of the true positives; `None` without any box (the
+    /// devkit's −1, which the curve skips).
+    similarity: Option<f64>,
     /// Scores of the true positives.
     scores: Vec<f32>,
 }
 
-/// How `statistics` runs: at a score threshold counting false positives (and AOS), or
-/// collecting the scores of every match (`thresh` unused).
+/// How `statistics` runs (the devkit's `compute_fp`): collecting the score of every match, or
+/// at a score threshold, counting false positives and the orientation similarity.
 #[derive(Debug, Clone, Copy)]
-struct Pass {
-    thresh: f32,
-    compute_fp: bool,
-    compute_aos: bool,
+enum Pass {
+    /// `compute_fp = False`: each object takes its best-scoring detection.
+    Scores,
+    /// `compute_fp = True` at this threshold: each object takes its best-overlapping one.
+    Threshold(f32),
 }
 
 /// `compute_statistics_jit`, line for line.
 fn statistics(f: &FrameData, metric: ApMetric, min_overlap: f64, pass: Pass) -> Statistics {
-    let below: Vec<bool> =
-        f.dt.iter()
-            .map(|d| pass.compute_fp && d.score.unwrap_or(0.0) < pass.thresh)
-            .collect();
+    let below: Vec<bool> = match pass {
+        Pass::Scores => vec![false; f.dt.len()],
+        Pass::Threshold(thresh) => f.dt.iter().map(|d| d.score.unwrap_or(0.0) < thresh).collect(),
+    };
     let mut assigned = vec![false; f.dt.len()];
     let (mut st, deltas) = match_ground_truth(f, min_overlap, pass, &below, &mut assigned);
-    if pass.compute_fp {
+    if let Pass::Threshold(_) = pass {
         st.fp = false_positives(f, metric, min_overlap, &below, &mut assigned);
-        if pass.compute_aos {
-            st.similarity = if st.tp > 0 || st.fp > 0 {
-                deltas.iter().map(|d| (1.0 + d.cos()) / 2.0).sum()
-            } else {
-                -1.0
-            };
-        }
+        st.similarity = (st.tp > 0 || st.fp > 0).then(|| deltas.iter().map(|d| (1.0 + d.cos()) / 2.0).sum());
     }
     st
 }
 
 /// The ground-truth loop of `compute_statistics_jit`: each object takes its best detection
-/// (by score, or with `compute_fp` by overlap, counted ones before ignored ones); true
-/// positives, false negatives, and the alpha differences of the true positives.
+/// (by score, or at a threshold by overlap, counted ones before ignored ones); true positives
+/// and the alpha differences of the true positives (false negatives are not needed).
 fn match_ground_truth(
     f: &FrameData,
     min_overlap: f64,
@@ -244,7 +240,6 @@ fn match_ground_truth(
     below: &[bool],
     assigned: &mut [bool],
 ) -> (Statistics, Vec<f64>) {
-    const NO_DETECTION: f32 = -10_000_000.0;
     let (gt_roles, dt_roles) = (&f.roles.gt, &f.roles.dt);
     let mut st = Statistics::default();
     let mut deltas = Vec::new();
@@ -252,41 +247,74 @@ fn match_ground_truth(
         if gt_role == Role::Other {
             continue;
         }
-        let (mut det, mut valid, mut max_overlap, mut assigned_ignored) = (usize::MAX, NO_DETECTION, 0.0f64, false);
-        for j in 0..f.dt.len() {
-            if dt_roles[j] == Role::Other || assigned[j] || below[j] {
-                continue;
-            }
-            let overlap = f.overlaps[j][i];
-            let score = f.dt[j].score.unwrap_or(0.0);
-            if !pass.compute_fp && overlap > min_overlap && score > valid {
-                (det, valid) = (j, score);
-            } else if pass.compute_fp
-                && overlap > min_overlap
-                && (overlap > max_overlap || assigned_ignored)
-                && dt_roles[j] == Role::Counted
-            {
-                (max_overlap, det, valid, assigned_ignored) = (overlap, j, 1.0, false);
-            } else if pass.compute_fp && overlap > min_overlap && valid == NO_DETECTION && dt_roles[j] == Role::Ignored
-            {
-                (det, valid, assigned_ignored) = (j, 1.0, true);
-            }
-        }
-        if valid == NO_DETECTION {
-            // A false negative when the object counts (the AP needs none).
-            continue;
-        }
+        let open: Vec<usize> = (0..f.dt.len())
+            .filter(|&j| !(dt_roles[j] == Role::Other || assigned[j] || below[j]))
+            .collect();
+        let found = match pass {
+            Pass::Scores => best_by_score(f, i, min_overlap, &open),
+            Pass::Threshold(_) => best_by_overlap(f, i, min_overlap, &open),
+        };
+        // None: a false negative when the object counts (the AP needs none).
+        let Some(det) = found else { continue };
         assigned[det] = true;
         // A match with an ignored object or detection is neither a true nor a false positive.
         if gt_role == Role::Counted && dt_roles[det] == Role::Counted {
             st.tp += 1;
             st.scores.push(f.dt[det].score.unwrap_or(0.0));
-            if pass.compute_aos {
-                deltas.push((f.gt[i].alpha - f.dt[det].alpha) as f64);
-            }
+            deltas.push((f.gt[i].alpha - f.dt[det].alpha) as f64);
         }
     }
     (st, deltas)
+}
+
+/// A detection and its score.
+#[derive(Debug, Clone, Copy)]
+struct Scored {
+    det: usize,
+    score: f32,
+}
+
+/// The highest-scoring of the `open` detections overlapping object `i` by more than
+/// `min_overlap` (a NaN score never wins, as in the devkit's `score > valid_detection`).
+fn best_by_score(f: &FrameData, i: usize, min_overlap: f64, open: &[usize]) -> Option<usize> {
+    let mut best: Option<Scored> = None;
+    for &j in open {
+        let score = f.dt[j].score.unwrap_or(0.0);
+        if f.overlaps[j][i] > min_overlap && !score.is_nan() && best.is_none_or(|b| score > b.score) {
+            best = Some(Scored { det: j, score });
+        }
+    }
+    best.map(|b| b.det)
+}
+
+/// What an object has matched so far in the threshold pass.
+#[derive(Debug, Clone, Copy)]
+enum Matched {
+    /// A counted detection (the best overlap so far).
+    Counted(usize),
+    /// An ignored detection, taken only while no counted one matches.
+    Ignored(usize),
+}
+
+/// The `open` detection object `i` takes at a threshold: the counted one of largest overlap
+/// above `min_overlap`, else the first ignored one above it.
+fn best_by_overlap(f: &FrameData, i: usize, min_overlap: f64, open: &[usize]) -> Option<usize> {
+    let mut best: Option<Matched> = None;
+    let mut max_overlap = 0.0f64;
+    for &j in open {
+        let overlap = f.overlaps[j][i];
+        let took_ignored = matches!(best, Some(Matched::Ignored(_)));
+        let role = f.roles.dt[j];
+        if overlap > min_overlap && (overlap > max_overlap || took_ignored) && role == Role::Counted {
+            max_overlap = overlap;
+            best = Some(Matched::Counted(j));
+        } else if overlap > min_overlap && best.is_none() && role == Role::Ignored {
+            best = Some(Matched::Ignored(j));
+        }
+    }
+    best.map(|m| match m {
+        Matched::Counted(j) | Matched::Ignored(j) => j,
+    })
 }
 
 /// Unassigned counted detections above the threshold; in the 2D metric, those inside a
@@ -328,15 +356,22 @@ fn sample_thresholds(mut scores: Vec<f32>, num_gt: usize) -> Vec<f32> {
     out
 }
 
-/// Precision (and AOS) curves of one class, difficulty and metric.
+/// The precision and orientation-similarity curves of one class, difficulty and metric, at
+/// the sampled score thresholds (the devkit's `eval_class`).
+#[derive(Debug, Clone, Copy)]
+struct Curves {
+    precision: [f64; SAMPLES],
+    orientation: [f64; SAMPLES],
+}
+
+/// [`Curves`] of one class, difficulty and metric.
 fn curves(
     frames: &[(&[KittiObject], &[KittiObject])],
     class: ObjectClass,
     diff: Difficulty,
     metric: ApMetric,
     min_overlap: f64,
-    aos: bool,
-) -> ([f64; SAMPLES], [f64; SAMPLES]) {
+) -> Curves {
     let data: Vec<FrameData> = frames
         .iter()
         .map(|(gt, dt)| FrameData {
@@ -347,81 +382,63 @@ fn curves(
         })
         .collect();
     let total_valid: usize = data.iter().map(|f| f.roles.valid()).sum();
-    let (mut precision, mut orientation) = ([0.0; SAMPLES], [0.0; SAMPLES]);
+    let mut c = Curves {
+        precision: [0.0; SAMPLES],
+        orientation: [0.0; SAMPLES],
+    };
     if total_valid == 0 {
         // The Python port divides by zero here; no object of the class means AP 0.
-        return (precision, orientation);
+        return c;
     }
     let scores: Vec<f32> = data
         .iter()
-        .flat_map(|f| {
-            let collect = Pass {
-                thresh: 0.0,
-                compute_fp: false,
-                compute_aos: false,
-            };
-            statistics(f, metric, min_overlap, collect).scores
-        })
+        .flat_map(|f| statistics(f, metric, min_overlap, Pass::Scores).scores)
         .collect();
     let thresholds = sample_thresholds(scores, total_valid);
     for (t, &thresh) in thresholds.iter().enumerate() {
         let (mut tp, mut fp, mut sim) = (0usize, 0usize, 0.0f64);
         for f in &data {
-            let pass = Pass {
-                thresh,
-                compute_fp: true,
-                compute_aos: aos,
-            };
-            let st = statistics(f, metric, min_overlap, pass);
+            let st = statistics(f, metric, min_overlap, Pass::Threshold(thresh));
             tp += st.tp;
             fp += st.fp;
-            if st.similarity != -1.0 {
-                sim += st.similarity;
-            }
+            sim += st.similarity.unwrap_or(0.0);
         }
-        precision[t] = tp as f64 / (tp + fp) as f64;
-        orientation[t] = sim / (tp + fp) as f64;
+        c.precision[t] = tp as f64 / (tp + fp) as f64;
+        c.orientation[t] = sim / (tp + fp) as f64;
     }
     for t in (0..thresholds.len()).rev() {
         if t + 1 < SAMPLES {
-            precision[t] = precision[t].max(precision[t + 1]);
-            orientation[t] = orientation[t].max(orientation[t + 1]);
+            c.precision[t] = c.precision[t].max(c.precision[t + 1]);
+            c.orientation[t] = c.orientation[t].max(c.orientation[t + 1]);
         }
     }
-    (precision, orientation)
+    c
 }
 
 /// KITTI AP of `classes` over frames of `(ground truth, detections)`. Detections need a score,
 /// a 2D box (for the height rule and the 2D metric) and, for AOS, alpha (AOS is computed
-/// unless the first detection's alpha is −10, as in the devkit).
+/// unless the first detection's alpha is [`NO_ALPHA`], as in the devkit).
 pub fn kitti_ap(frames: &[(Vec<KittiObject>, Vec<KittiObject>)], classes: &[ObjectClass]) -> Vec<ClassAp> {
     let refs: Vec<(&[KittiObject], &[KittiObject])> =
         frames.iter().map(|(g, d)| (g.as_slice(), d.as_slice())).collect();
-    let compute_aos = frames
+    let with_alpha = frames
         .iter()
         .find(|(_, d)| !d.is_empty())
-        .is_some_and(|(_, d)| d[0].alpha != -10.0);
+        .is_some_and(|(_, d)| d[0].alpha != NO_ALPHA);
     classes
         .iter()
         .map(|&class| {
             let mo = official_min_overlap(class) as f64;
-            let run = |metric, aos| -> ([Ap; 3], [Ap; 3]) {
-                let c: Vec<_> = Difficulty::ALL
-                    .map(|d| curves(&refs, class, d, metric, mo, aos))
-                    .to_vec();
-                (
-                    std::array::from_fn(|d| Ap::from_curve(&c[d].0)),
-                    std::array::from_fn(|d| Ap::from_curve(&c[d].1)),
-                )
-            };
-            let (bbox, aos) = run(ApMetric::Bbox, compute_aos);
+            let per_difficulty = |metric| Difficulty::ALL.map(|d| curves(&refs, class, d, metric, mo));
+            let precision = |c: [Curves; 3]| c.map(|c| Ap::from_curve(&c.precision));
+            let bbox = per_difficulty(ApMetric::Bbox);
             ClassAp {
                 class,
                 min_overlap: mo as f32,
-                bbox,
-                bev: run(ApMetric::Bev, false).0,
-                three_d: run(ApMetric::ThreeD, false).0,
-                aos: compute_aos.then_some(aos),
+                bbox: precision(bbox),
+                bev: precision(per_difficulty(ApMetric::Bev)),
+                three_d: precision(per_difficulty(ApMetric::ThreeD)),
+                aos: with_alpha.then(|| bbox.map(|c| Ap::from_curve(&c.orientation))),
             }
         })
         .collect()

@@ -26,31 +26,67 @@ impl<'a> Mat<'a> {
         );
         Self { data, rows, cols }
     }
+
+    /// `[rows, cols]` of `op(self)`.
+    fn op_dims(self, op: Op) -> [usize; 2] {
+        match op {
+            Op::N => [self.rows, self.cols],
+            Op::T => [self.cols, self.rows],
+        }
+    }
+}
+
+/// How a product reads a matrix: as stored, or transposed (BLAS's `N` and `T`). A transpose
+/// is a choice of strides, never a copy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Op {
+    /// `x`.
+    N,
+    /// `xᵀ`.
+    T,
+}
+
+/// What a product does with the destination's values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Write {
+    /// `dst = op(a) · op(b)`.
+    Overwrite,
+    /// `dst += op(a) · op(b)`.
+    Accumulate,
+}
+
+/// Where a product runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Threads {
+    /// On the rayon pool, when it is large enough to gain from it.
+    Pool,
+    /// On the calling thread (a caller that already runs one product per thread).
+    One,
 }
 
 /// Below this many multiply-adds one thread is faster than two (flex's own threshold).
 const PARALLEL_MACS: usize = 192 * 192 * 192;
 
-/// `dst (m×n) = [dst +] op(a) · op(b)`, where `op(x)` is `x` or `xᵀ` as `ta` / `tb` say.
-/// `accumulate` adds to `dst` instead of overwriting it.
+/// `dst (m×n) = [dst +] op(a) · op(b)`, where `op(x)` is `x` or `xᵀ` as `ta` / `tb` say;
+/// `write` says whether it overwrites `dst` or adds to it.
 ///
 /// # Panics
 /// If the shapes do not chain or `dst` does not hold `m × n` values.
-pub fn matmul(dst: &mut [f32], a: Mat, ta: bool, b: Mat, tb: bool, accumulate: bool) {
+pub fn matmul(dst: &mut [f32], a: Mat, ta: Op, b: Mat, tb: Op, write: Write) {
     let [m, n, k] = product_dims(a, ta, b, tb);
     assert_eq!(dst.len(), m * n, "destination is not {m}×{n}");
     if k == 0 {
-        if !accumulate {
+        if write == Write::Overwrite {
             dst.fill(0.0);
         }
         return;
     }
     // SAFETY: `dst` holds m × n values and, borrowed mutably, aliases neither input.
-    unsafe { product(dst.as_mut_ptr(), a, ta, b, tb, accumulate, true) }
+    unsafe { product(dst.as_mut_ptr(), a, ta, b, tb, write, Threads::Pool) }
 }
 
 /// `op(a) · op(b)` into a new `m × n` vector, written by the product alone (no zeroing pass).
-pub fn matmul_new(a: Mat, ta: bool, b: Mat, tb: bool) -> Vec<f32> {
+pub fn matmul_new(a: Mat, ta: Op, b: Mat, tb: Op) -> Vec<f32> {
     let [m, n, k] = product_dims(a, ta, b, tb);
     if k == 0 || m * n == 0 {
         return vec![0.0; m * n];
@@ -59,7 +95,7 @@ pub fn matmul_new(a: Mat, ta: bool, b: Mat, tb: bool) -> Vec<f32> {
     // SAFETY: the capacity holds m × n values; with k > 0 and no accumulation gemm writes every
     // one of them without reading any, and only then does the length cover them.
     unsafe {
-        product(out.as_mut_ptr(), a, ta, b, tb, false, true);
+        product(out.as_mut_ptr(), a, ta, b, tb, Write::Overwrite, Threads::Pool);
         out.set_len(m * n);
     }
     out
@@ -76,14 +112,14 @@ pub fn matmul_tn(a: Mat, b: Mat) -> Vec<f32> {
     assert_eq!(a.rows, b.rows, "inner dimensions differ");
     let (m, n, k) = (a.cols, b.cols, a.rows);
     if k <= TN_CHUNK_ROWS {
-        return matmul_new(a, true, b, false);
+        return matmul_new(a, Op::T, b, Op::N);
     }
     let part = |c: usize| {
         let rows = c * TN_CHUNK_ROWS..((c + 1) * TN_CHUNK_ROWS).min(k);
         let (a, b) = (row_range(a, rows.clone()), row_range(b, rows));
         let mut out = vec![0.0; m * n];
         // SAFETY: `out` holds m × n values and aliases neither input.
-        unsafe { product(out.as_mut_ptr(), a, true, b, false, false, false) };
+        unsafe { product(out.as_mut_ptr(), a, Op::T, b, Op::N, Write::Overwrite, Threads::One) };
         out
     };
     let parts: Vec<Vec<f32>> = (0..k.div_ceil(TN_CHUNK_ROWS)).into_par_iter().map(part).collect();
@@ -100,23 +136,27 @@ fn row_range(x: Mat, rows: std::ops::Range<usize>) -> Mat {
 }
 
 /// `[m, n, k]` of `op(a) · op(b)`.
-fn product_dims(a: Mat, ta: bool, b: Mat, tb: bool) -> [usize; 3] {
-    let (m, k) = if ta { (a.cols, a.rows) } else { (a.rows, a.cols) };
-    let (kb, n) = if tb { (b.cols, b.rows) } else { (b.rows, b.cols) };
+fn product_dims(a: Mat, ta: Op, b: Mat, tb: Op) -> [usize; 3] {
+    let [m, k] = a.op_dims(ta);
+    let [kb, n] = b.op_dims(tb);
     assert_eq!(k, kb, "inner dimensions differ");
     [m, n, k]
 }
 
 /// # Safety
-/// `dst` must be valid for writes (and, with `accumulate`, reads) of `m × n` values and alias
-/// neither input; `k > 0`.
-unsafe fn product(dst: *mut f32, a: Mat, ta: bool, b: Mat, tb: bool, accumulate: bool, threaded: bool) {
+/// `dst` must be valid for writes (and, with [`Write::Accumulate`], reads) of `m × n` values
+/// and alias neither input; `k > 0`.
+unsafe fn product(dst: *mut f32, a: Mat, ta: Op, b: Mat, tb: Op, write: Write, threads: Threads) {
     let [m, n, k] = product_dims(a, ta, b, tb);
     // Element (i, j) of op(x) sits at i·rs + j·cs, inside its slice by `Mat::new`'s check.
-    let strides = |x: Mat, t: bool| if t { (1, x.cols as isize) } else { (x.cols as isize, 1) };
+    let strides = |x: Mat, t: Op| match t {
+        Op::N => (x.cols as isize, 1),
+        Op::T => (1, x.cols as isize),
+    };
     let (a_rs, a_cs) = strides(a, ta);
     let (b_rs, b_cs) = strides(b, tb);
-    let parallelism = if threaded && m * n * k >= PARALLEL_MACS {
+    let accumulate = write == Write::Accumulate;
+    let parallelism = if threads == Threads::Pool && m * n * k >= PARALLEL_MACS {
         gemm::Parallelism::Rayon(0)
     } else {
         gemm::Parallelism::None
@@ -162,6 +202,10 @@ mod tests {
         c
     }
 
+    fn op(transposed: bool) -> Op {
+        if transposed { Op::T } else { Op::N }
+    }
+
     fn transpose(x: &[f32], rows: usize, cols: usize) -> Vec<f32> {
         (0..cols * rows).map(|i| x[(i % rows) * cols + i / rows]).collect()
     }
@@ -178,12 +222,12 @@ mod tests {
             let lhs = if ta { Mat::new(&at, k, m) } else { Mat::new(&a, m, k) };
             let rhs = if tb { Mat::new(&bt, n, k) } else { Mat::new(&b, k, n) };
             let mut c = vec![1.0; m * n];
-            matmul(&mut c, lhs, ta, rhs, tb, true);
+            matmul(&mut c, lhs, op(ta), rhs, op(tb), Write::Accumulate);
             assert!(
                 c.iter().zip(&want).all(|(x, y)| (x - 1.0 - y).abs() < 1e-5),
                 "({ta}, {tb}) accumulate"
             );
-            matmul(&mut c, lhs, ta, rhs, tb, false);
+            matmul(&mut c, lhs, op(ta), rhs, op(tb), Write::Overwrite);
             assert!(c.iter().zip(&want).all(|(x, y)| (x - y).abs() < 1e-5), "({ta}, {tb})");
         }
     }
@@ -192,7 +236,7 @@ mod tests {
     fn a_new_product_matches_the_in_place_one() {
         let a: Vec<f32> = (0..12).map(|i| i as f32).collect();
         let b: Vec<f32> = (0..8).map(|i| 1.0 - i as f32).collect();
-        let new = matmul_new(Mat::new(&a, 6, 2), false, Mat::new(&b, 4, 2), true);
+        let new = matmul_new(Mat::new(&a, 6, 2), Op::N, Mat::new(&b, 4, 2), Op::T);
         assert_eq!(new, naive(&a, &transpose(&b, 4, 2), 6, 2, 4));
     }
 
@@ -215,7 +259,14 @@ mod tests {
     #[test]
     fn an_empty_inner_dimension_gives_zeros() {
         let mut c = vec![3.0; 4];
-        matmul(&mut c, Mat::new(&[], 2, 0), false, Mat::new(&[], 0, 2), false, false);
+        matmul(
+            &mut c,
+            Mat::new(&[], 2, 0),
+            Op::N,
+            Mat::new(&[], 0, 2),
+            Op::N,
+            Write::Overwrite,
+        );
         assert_eq!(c, [0.0; 4]);
     }
 }

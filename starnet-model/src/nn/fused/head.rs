@@ -3,7 +3,7 @@
 //! wide (4, 8 and 28 at the quickstart's settings), where a product runs far below its speed,
 //! and nothing between the layers goes back to Burn.
 
-use super::gemm::{Mat, matmul_new, matmul_tn};
+use super::gemm::{Mat, Op, matmul_new, matmul_tn};
 use super::kernel::{column_sums, relu_backward_sum};
 use super::rows::{add, for_rows, relu};
 
@@ -71,15 +71,15 @@ pub fn forward(x: &[f32], p: HeadParams, dims: HeadDims) -> (Vec<f32>, Vec<f32>)
     let (gd, k) = (dims.d_proj(), dims.d_out);
     let mut f = matmul_new(
         Mat::new(x, dims.rows, dims.d_in),
-        false,
+        Op::N,
         Mat::new(p.w_proj, dims.d_in, gd),
-        false,
+        Op::N,
     );
     for_rows(&mut f, gd, |_, row| {
         row.iter_mut().zip(p.b_proj).for_each(|(v, b)| *v = relu(*v + b));
     });
     let features = Mat::new(&f, dims.head_rows(), dims.d_offset);
-    let mut z = matmul_new(features, false, Mat::new(p.w_heads, dims.d_offset, k), false);
+    let mut z = matmul_new(features, Op::N, Mat::new(p.w_heads, dims.d_offset, k), Op::N);
     for_rows(&mut z, k, |_, row| add(row, p.b_heads));
     (z, f)
 }
@@ -91,11 +91,11 @@ pub fn backward(x: &[f32], p: HeadParams, dims: HeadDims, f: &[f32], dz: &[f32])
     let dz_mat = Mat::new(dz, dims.head_rows(), k);
     let b_heads = column_sums(dz, k);
     let w_heads = matmul_tn(Mat::new(f, dims.head_rows(), d), dz_mat);
-    let mut df = matmul_new(dz_mat, false, Mat::new(p.w_heads, d, k), true);
+    let mut df = matmul_new(dz_mat, Op::N, Mat::new(p.w_heads, d, k), Op::T);
     let b_proj = relu_backward_sum(&mut df, f, gd);
     let df = Mat::new(&df, dims.rows, gd);
     let w_proj = matmul_tn(Mat::new(x, dims.rows, dims.d_in), df);
-    let x = matmul_new(df, false, Mat::new(p.w_proj, dims.d_in, gd), true);
+    let x = matmul_new(df, Op::N, Mat::new(p.w_proj, dims.d_in, gd), Op::T);
     HeadGrads {
         x,
         w_proj,

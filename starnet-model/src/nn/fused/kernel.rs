@@ -16,7 +16,7 @@
 //! gradient, is simply absent. Batch statistics are over the real rows (the pooled half weighs
 //! each center by its real-point count, as the broadcast concat does).
 
-use super::gemm::{Mat, matmul_new, matmul_tn};
+use super::gemm::{Mat, Op, matmul_new, matmul_tn};
 pub use super::moments::BnStats;
 use super::moments::Moments;
 use super::packed::Packed;
@@ -198,11 +198,11 @@ pub fn forward(
     let (w1x, w1g) = params.w1.split_at(d * h);
     // Per center: the point half's shift and the whole pooled half, `[N, H]`.
     let yg = normalize_pooled(&pooled, &s1[d..], &t1[d..]);
-    let mut per_center = matmul_new(Mat::new(&yg, rows.centers(), d), false, Mat::new(w1g, d, h), false);
+    let mut per_center = matmul_new(Mat::new(&yg, rows.centers(), d), Op::N, Mat::new(w1g, d, h), Op::N);
     let shift = row_times(&t1[..d], w1x, h);
     for_rows(&mut per_center, h, |_, row| add(row, &shift));
     let w1s = scale_rows(w1x, &s1[..d], h);
-    let mut hidden = matmul_new(Mat::new(x, rows.rows(), d), false, Mat::new(&w1s, d, h), false);
+    let mut hidden = matmul_new(Mat::new(x, rows.rows(), d), Op::N, Mat::new(&w1s, d, h), Op::N);
     let batch = matches!(norm, Normalization::Batch);
     // The ReLU pass also takes BN₂'s batch moments, chunk by chunk while the rows are in cache.
     let parts = map_chunks(&mut hidden, h, |r0, chunk| {
@@ -222,7 +222,7 @@ pub fn forward(
     let (s2, t2) = fold(params.gamma2, params.beta2, &bn2, params.epsilon);
     let bias2 = row_times(&t2, params.w2, o);
     let w2s = scale_rows(params.w2, &s2, o);
-    let mut out = matmul_new(Mat::new(&hidden, rows.rows(), h), false, Mat::new(&w2s, h, o), false);
+    let mut out = matmul_new(Mat::new(&hidden, rows.rows(), h), Op::N, Mat::new(&w2s, h, o), Op::N);
     for_rows(&mut out, o, |_, row| {
         row.iter_mut().zip(&bias2).for_each(|(v, b)| *v = relu(*v + b));
     });
@@ -473,7 +473,7 @@ fn second_layer_backward(
     let (s2, t2) = fold(params.gamma2, params.beta2, &fwd.bn2, params.epsilon);
     let hidden = Mat::new(&fwd.hidden, rows, h);
     let w2 = folded_weight_grad(hidden, Mat::new(&dz2, rows, o), &dz2_sum, &s2, &t2);
-    let mut dz1 = matmul_new(Mat::new(&dz2, rows, o), false, Mat::new(params.w2, h, o), true);
+    let mut dz1 = matmul_new(Mat::new(&dz2, rows, o), Op::N, Mat::new(params.w2, h, o), Op::T);
     let bn = BnBackward {
         x: &fwd.hidden,
         stats: fwd.bn2.clone(),
@@ -537,8 +537,8 @@ fn first_layer_backward(
     let yg = normalize_pooled(&fwd.pooled, &s1[d..], &t1[d..]);
     let w1_pooled = matmul_tn(Mat::new(&yg, centers, d), Mat::new(&dz_center, centers, h));
     w1.extend_from_slice(&w1_pooled);
-    let mut d_pooled = matmul_new(Mat::new(&dz_center, centers, h), false, Mat::new(w1g, d, h), true);
-    let mut dx = matmul_new(Mat::new(&dz1, rows.rows(), h), false, Mat::new(w1x, d, h), true);
+    let mut d_pooled = matmul_new(Mat::new(&dz_center, centers, h), Op::N, Mat::new(w1g, d, h), Op::T);
+    let mut dx = matmul_new(Mat::new(&dz1, rows.rows(), h), Op::N, Mat::new(w1x, d, h), Op::T);
     drop(dz1);
     let half = |from: usize, to: usize| BnStats {
         mean: fwd.bn1.mean[from..to].to_vec(),

@@ -16,6 +16,6 @@ pub mod packed;
 mod rows;
 pub mod stack;
 
-pub use gemm::{Mat, matmul, matmul_new, matmul_tn};
+pub use gemm::{Mat, Op, Write, matmul, matmul_new, matmul_tn};
 pub mod op;
 pub mod stack_op;

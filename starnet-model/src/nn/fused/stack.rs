@@ -4,7 +4,7 @@
 //! to Burn: the readout's gradient is added to each layer's output gradient in place instead of
 //! being broadcast to a tensor of its own, and fc0's bias and ReLU cost no pass of their own.
 
-use super::gemm::{Mat, matmul_new, matmul_tn};
+use super::gemm::{Mat, Op, matmul_new, matmul_tn};
 use super::kernel::{self, BlockDims, BlockGrads, BlockParams, BlockSaved, Forward, Normalization, relu_backward_sum};
 use super::packed::Packed;
 use super::rows::{add, add_scaled, for_rows, relu};
@@ -84,7 +84,7 @@ fn inverse_counts(rows: &Packed) -> Vec<f32> {
 /// fc0: `relu(x W₀ + b₀)` `[R, d0]`.
 fn fc0(x: &[f32], rows: &Packed, w0: &[f32], b0: &[f32], dims: &StackDims) -> Vec<f32> {
     let (f, d0) = (dims.d_input, dims.d_fc0);
-    let mut h = matmul_new(Mat::new(x, rows.rows(), f), false, Mat::new(w0, f, d0), false);
+    let mut h = matmul_new(Mat::new(x, rows.rows(), f), Op::N, Mat::new(w0, f, d0), Op::N);
     for_rows(&mut h, d0, |_, row| {
         row.iter_mut().zip(b0).for_each(|(v, b)| *v = relu(*v + b));
     });
@@ -199,6 +199,6 @@ fn fc0_backward(
     let b0 = relu_backward_sum(&mut grad, h0, d0);
     let dz = Mat::new(&grad, rows, d0);
     let w = matmul_tn(Mat::new(x, rows, f), dz);
-    let dx = matmul_new(dz, false, Mat::new(w0, f, d0), true);
+    let dx = matmul_new(dz, Op::N, Mat::new(w0, f, d0), Op::T);
     (w, b0, dx)
 }
