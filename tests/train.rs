@@ -9,6 +9,8 @@ use burn::prelude::*;
 use starnet_train::config::load_config;
 use starnet_train::train::{TrainOptions, load_model, train};
 use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
 
 /// `common::TINY_CAR` with two blocks, a 0.3 score threshold and three epochs.
 const TINY: &str = r#"
@@ -111,6 +113,60 @@ fn resuming_after_a_crash_gives_the_same_parameters() {
         log.lines().filter(|l| l.contains("\"loss\"")).count() as u64,
         full.steps
     );
+}
+
+/// The newest `step-*` checkpoint's step in `run`, once one exists.
+fn newest_step(run: &Path) -> Option<u64> {
+    std::fs::read_dir(run.join("checkpoints"))
+        .ok()?
+        .filter_map(|e| e.ok()?.file_name().to_str()?.strip_prefix("step-")?.parse().ok())
+        .max()
+}
+
+#[test]
+fn a_run_folder_takes_one_trainer_and_a_killed_run_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = tiny_config(dir.path());
+    let cfg = cfg.to_str().unwrap();
+    let run = dir.path().join("runs/tiny");
+    // A first trainer with far more epochs than the test lets it run.
+    let long = ["train", "--config", cfg, "--set", "train.epochs=100000"];
+    let mut first = Command::new(env!("CARGO_BIN_EXE_starnet"))
+        .args(long)
+        .current_dir(dir.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let step = loop {
+        if let Some(step) = newest_step(&run) {
+            break step;
+        }
+        assert!(first.try_wait().unwrap().is_none(), "the first trainer ended early");
+        assert!(
+            start.elapsed() < Duration::from_secs(300),
+            "no checkpoint within 5 minutes"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    // A second trainer on the same folder, even resuming, is refused and names it.
+    let second = starnet(&[&long[..], &["--resume"]].concat(), dir.path());
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert_eq!(second.status.code(), Some(1), "{err}");
+    assert!(err.contains("runs/tiny is in use"), "{err}");
+    // Killed outright, the first leaves its lock file behind; the run still resumes.
+    first.kill().unwrap();
+    first.wait().unwrap();
+    assert!(run.join(starnet_train::train::LOCK_FILE).is_file());
+    let until = (step + 2).to_string();
+    let resumed = starnet(&[&long[..], &["--resume", "--max-steps", &until]].concat(), dir.path());
+    let out = common::ok(&resumed);
+    assert!(
+        out.contains("resuming from") && out.contains("| Car | 0.7 | 3D |"),
+        "{out}"
+    );
+    assert!(run.join("eval.json").is_file());
 }
 
 #[test]

@@ -7,7 +7,7 @@
 //! cargo bench -p starnet-model --bench backend --no-default-features --features ndarray    # ndarray
 //! ```
 //! Rows = C·P = 512 · 32 = 16,384 points; block = BN → Linear(128→256) → ReLU → BN →
-//! Linear(256→64) → ReLU (the StarNet block's two layers, DESIGN §6). Prints medians.
+//! Linear(256→64) → ReLU (the StarNet block's two layers, ARCHITECTURE.md §6). Prints medians.
 
 use burn::module::Module;
 use burn::nn::{BatchNorm, BatchNormConfig, Linear, LinearConfig};

@@ -137,7 +137,7 @@ impl DeviceChoice {
 /// the thread that will run the model: the parallel parts of every operation it starts (the
 /// products, the fused blocks' row passes) then run on it and the pool's other threads, instead
 /// of being handed to the pool while it sleeps until they are done, a hand-over and a wake-up
-/// per operation that cost a fifth of a small model's training step (BENCHMARKS.md, issue
+/// per operation that cost a fifth of a small model's training step (docs/benchmarks-history.md, issue
 /// #16). Results do not change: reductions do not depend on the threads.
 ///
 /// Returns false, changing nothing, when the global pool already exists (everything works

@@ -1,4 +1,4 @@
-//! The box coder (lingvo `detection_3d_lib.py`, DESIGN §6): residuals of a box against an
+//! The box coder (lingvo `detection_3d_lib.py`, ARCHITECTURE.md §6): residuals of a box against an
 //! anchor, and back. With `d = √(dx_a² + dy_a²)`:
 //!
 //! ```text

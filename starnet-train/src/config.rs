@@ -151,7 +151,7 @@ pub struct TrainSection {
     /// Threads a training step computes on, in a pool of its own (0: `RAYON_NUM_THREADS`, else one
     /// per core). A small model beside a busy loader gains nothing from a second thread on 2 cores
     /// (it contends with the loader for its core: the quickstart sets 1); the paper's widths
-    /// train 1.4× faster on two than on one (BENCHMARKS.md, issue #16).
+    /// train 1.3–1.5× faster on two than on one (BENCHMARKS.md, issue #16).
     pub step_threads: usize,
     /// Where the model trains: `flex` (the CPU), `vulkan[:N]` or `wgpu[:N]` (a GPU; a build with
     /// that cargo feature). Evaluation runs on the CPU.

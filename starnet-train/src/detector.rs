@@ -8,7 +8,8 @@
 //! ```no_run
 //! use starnet_data::kitti::KittiDataset;
 //! use starnet_train::detector::Detector;
-//! //!
+//! use std::path::Path;
+//!
 //! let detector = Detector::load(Path::new("runs/quickstart/checkpoints/best"))?;
 //! let val = KittiDataset::open(Path::new("data/sim"), Some("val"))?;
 //! for (i, id) in val.ids().iter().enumerate() {

@@ -1,4 +1,4 @@
-//! Training-time augmentation, in the authors' order (lingvo `params/kitti.py`, DESIGN §5):
+//! Training-time augmentation, in the authors' order (lingvo `params/kitti.py`, ARCHITECTURE.md §5):
 //! database paste, per-box rotation, flip y, global rotation, global scaling, global z shift,
 //! then the reflectance step (ours, off by default: [`ReflectanceAugment`]), and — after center
 //! selection, so it only thins the gathered neighbourhoods — a one-ring dropout. Every step

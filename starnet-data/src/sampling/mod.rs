@@ -1,4 +1,4 @@
-//! From a loaded frame to the model's input (DESIGN §4–§5): the center pool, center sampling
+//! From a loaded frame to the model's input (ARCHITECTURE.md §4–§5): the center pool, center sampling
 //! (random, FPS, seeded FPS), neighbourhood gathering, the anchor layout around centers, and the
 //! azimuth slices of a streaming sweep.
 

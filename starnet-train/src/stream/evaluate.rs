@@ -45,7 +45,7 @@ pub struct StreamReport {
     pub gflop_per_slice: f64,
     /// Peak compute as a fraction of the whole sweep's in one forward.
     pub peak_fraction: f64,
-    /// Median per-slice latency, ms (see [`StreamedSweep::slice_ms`]).
+    /// Median per-slice latency, ms (see [`super::StreamedSweep::slice_ms`]).
     pub slice_ms_median: f64,
     /// Mean per-slice latency, ms.
     pub slice_ms_mean: f64,

@@ -44,7 +44,7 @@ pub struct TemporalReport {
 /// would without seeds;
 /// the first frame of a sequence has no seeds. Frame `i`
 /// (counting through the sequences) samples from `frame_seed(seed, i)`, as
-/// [`crate::train::evaluate`] does, so K = 0 reproduces it. `detector` is at the budget N.
+/// [`crate::evaluate::evaluate`] does, so K = 0 reproduces it. `detector` is at the budget N.
 pub fn evaluate_sequences(
     detector: &Detector,
     seed: u64,

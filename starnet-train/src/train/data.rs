@@ -14,7 +14,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::{GtDatabase, database_path};
 use starnet_data::events::{Task, note};
-use starnet_data::kitti::{KittiDataset, LabelSource};
+use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::loader::Loader;
 use starnet_data::sampling::{Augmentation, PreparedFrame, prepare_frame, prepare_sweep};
 use starnet_data::seed::sub_seed;
@@ -85,25 +85,39 @@ pub fn prepare_database(root: &Path, split: &str, labels: LabelSource) -> Result
     drop(task);
     let path = database_path(root, labels);
     db.write(&path)?;
-    let mut per_class: BTreeMap<String, (usize, usize)> = BTreeMap::new();
-    for e in &db.entries {
-        let c = per_class.entry(e.class.to_string()).or_default();
-        c.0 += 1;
-        c.1 += e.points.len();
-    }
     note(format!(
         "wrote {} ({} objects from {} frames of `{split}`)",
         path.display(),
         db.entries.len(),
         ds.ids().len()
     ));
-    for (class, (n, pts)) in per_class {
+    for (class, tally) in class_tallies(&db) {
         note(format!(
-            "  {class:<15} {n:>6} objects, {:>6.1} points on average",
-            pts as f64 / n as f64
+            "  {:<15} {:>6} objects, {:>6.1} points on average",
+            class.to_string(),
+            tally.objects,
+            tally.points as f64 / tally.objects as f64
         ));
     }
     Ok(db)
+}
+
+/// Objects of one class in a database, and their points.
+#[derive(Debug, Clone, Copy, Default)]
+struct ClassTally {
+    objects: usize,
+    points: usize,
+}
+
+/// Each class's tally, in KITTI's class order.
+fn class_tallies(db: &GtDatabase) -> BTreeMap<ObjectClass, ClassTally> {
+    let mut tallies: BTreeMap<ObjectClass, ClassTally> = BTreeMap::new();
+    for e in &db.entries {
+        let t = tallies.entry(e.class).or_default();
+        t.objects += 1;
+        t.points += e.points.len();
+    }
+    tallies
 }
 
 /// The paste augmentation's database, when the config enables it.

@@ -2,10 +2,9 @@
 //! calls the `starnet_train` library; nothing else happens here. Each subcommand is an
 //! argument struct with a `run()`.
 
+mod commands;
 mod distributed;
-mod frames;
-mod models;
-mod outputs;
+mod parse;
 mod terminal;
 
 use clap::{Parser, Subcommand};
@@ -28,19 +27,19 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    Inspect(frames::Inspect),
-    Render(frames::Render),
-    Coverage(frames::Coverage),
-    Prepare(frames::Prepare),
-    Train(models::Train),
-    Eval(models::Eval),
-    StreamEval(models::StreamEval),
-    Export(models::Export),
-    Detect(models::Detect),
-    Plot(outputs::Plot),
-    Config(outputs::Config),
-    Synth(frames::Synth),
-    CompareData(frames::CompareData),
+    Inspect(commands::inspect::Inspect),
+    Render(commands::render::Render),
+    Coverage(commands::coverage::Coverage),
+    Prepare(commands::prepare::Prepare),
+    Train(commands::train::Train),
+    Eval(commands::eval::Eval),
+    StreamEval(commands::stream_eval::StreamEval),
+    Export(commands::export::Export),
+    Detect(commands::detect::Detect),
+    Plot(commands::plot::Plot),
+    Config(commands::config::Config),
+    Synth(commands::synth::Synth),
+    CompareData(commands::compare_data::CompareData),
 }
 
 fn main() -> anyhow::Result<()> {
