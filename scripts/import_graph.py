@@ -15,9 +15,10 @@ are imports. An arrow A -> B means "code in file A names an item that file B def
     followed through the `use` declarations of that file (`pub use child::Item`, renames, globs),
     recursively; a path that ends at a module, or an item the resolver cannot find, points to the
     module's own file (`foo.rs` or `foo/mod.rs`);
-  * NOT arrows: `mod child;` declarations, re-exports (`pub use`, `pub(crate) use`,
-    `pub(super) use`, ... : they only pass an item through; the files that import it get the arrow
-    to the defining file instead), external crates, self-arrows, and test code (`#[cfg(test)]`
+  * a re-export (`pub use`, `pub(crate) use`, ...) is an arrow only when the re-exporting file's
+    own code uses the name as well; one that only passes an item through is not (the files that
+    import it get the arrow to the defining file instead);
+  * NOT arrows: `mod child;` declarations, external crates, self-arrows, and test code (`#[cfg(test)]`
     items and file modules, and every `mod tests { ... }` block: tests may import anything).
 
 Comments (doc comments and intra-doc links included) and string/char literals are blanked first.
@@ -260,6 +261,7 @@ class SourceFile:
         code, self.test_mods = blank_test_code(strip_code(src))
         self.uses, rest = parse_uses(code)
         self.paths = inline_paths(rest)
+        self.words = set(re.findall(IDENT, rest))  # names the code uses, outside `use` lines
         self.items = defined_items(code)
         self.aliases = {}  # binding -> absolute module path, filled by Crate
         self.line_starts = [0] + [m.end() for m in re.finditer("\n", src)]
@@ -407,8 +409,13 @@ def file_arrows(crate):
     graph = defaultdict(list)
     for f in crate.modules.values():
         used_aliases = {leaf.segments[0] for leaf in f.paths} & set(f.aliases)
-        imports = [leaf for leaf in f.uses if not leaf.public and leaf.binding not in used_aliases]
-        for leaf in imports + f.paths:  # not re-exports, nor aliases whose uses in code give arrows
+        # A re-export is an arrow only when the file's own code uses the name too.
+        imports = [
+            leaf
+            for leaf in f.uses
+            if (not leaf.public or leaf.binding in f.words) and leaf.binding not in used_aliases
+        ]
+        for leaf in imports + f.paths:  # not pass-through re-exports, nor aliases whose uses in code give arrows
             target = crate.resolve(f, leaf.segments)
             if target is not None and target is not f:
                 graph[(f, target)].append(Arrow(f, f.line(leaf.offset), leaf.text, target))
@@ -648,6 +655,14 @@ class SelfTest(unittest.TestCase):
         }
         want = {("a/mod.rs", "a/b.rs"), ("a/b.rs", "a/mod.rs"), ("a/c.rs", "a/b.rs")}
         self.assertEqual(arrows_of(sources), want)
+
+    def test_a_reexport_the_file_uses_is_an_arrow(self):
+        sources = {
+            "lib.rs": "pub mod a;\n",
+            "a/mod.rs": "mod b;\npub use b::B;\npub fn top() -> B { B }\n",
+            "a/b.rs": "pub struct B;\nfn g() { super::top(); }\n",
+        }
+        self.assertEqual(arrows_of(sources), {("a/mod.rs", "a/b.rs"), ("a/b.rs", "a/mod.rs")})
 
     def test_restricted_reexports_relative_paths_inline_mods(self):
         sources = {

@@ -123,6 +123,23 @@ fn newest_step(run: &Path) -> Option<u64> {
         .max()
 }
 
+/// A child process killed (SIGKILL) when dropped, so a failing test leaves no trainer behind.
+struct KillOnDrop(std::process::Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// The step of the last record of a run's `log.jsonl`.
+fn last_logged_step(run: &Path) -> u64 {
+    let log = std::fs::read_to_string(run.join("log.jsonl")).unwrap();
+    let last: serde_json::Value = serde_json::from_str(log.lines().last().unwrap()).unwrap();
+    last["step"].as_u64().unwrap()
+}
+
 #[test]
 fn a_run_folder_takes_one_trainer_and_a_killed_run_resumes() {
     let dir = tempfile::tempdir().unwrap();
@@ -131,41 +148,43 @@ fn a_run_folder_takes_one_trainer_and_a_killed_run_resumes() {
     let run = dir.path().join("runs/tiny");
     // A first trainer with far more epochs than the test lets it run.
     let long = ["train", "--config", cfg, "--set", "train.epochs=100000"];
-    let mut first = Command::new(env!("CARGO_BIN_EXE_starnet"))
+    let spawned = Command::new(env!("CARGO_BIN_EXE_starnet"))
         .args(long)
         .current_dir(dir.path())
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
+    let mut first = KillOnDrop(spawned);
     let start = Instant::now();
-    let step = loop {
-        if let Some(step) = newest_step(&run) {
-            break step;
-        }
-        assert!(first.try_wait().unwrap().is_none(), "the first trainer ended early");
+    while newest_step(&run).is_none() {
+        assert!(first.0.try_wait().unwrap().is_none(), "the first trainer ended early");
         assert!(
             start.elapsed() < Duration::from_secs(300),
             "no checkpoint within 5 minutes"
         );
         std::thread::sleep(Duration::from_millis(100));
-    };
+    }
     // A second trainer on the same folder, even resuming, is refused and names it.
     let second = starnet(&[&long[..], &["--resume"]].concat(), dir.path());
     let err = String::from_utf8_lossy(&second.stderr);
     assert_eq!(second.status.code(), Some(1), "{err}");
     assert!(err.contains("runs/tiny is in use"), "{err}");
-    // Killed outright, the first leaves its lock file behind; the run still resumes.
-    first.kill().unwrap();
-    first.wait().unwrap();
-    assert!(run.join(starnet_train::train::LOCK_FILE).is_file());
-    let until = (step + 2).to_string();
-    let resumed = starnet(&[&long[..], &["--resume", "--max-steps", &until]].concat(), dir.path());
-    let out = common::ok(&resumed);
-    assert!(
-        out.contains("resuming from") && out.contains("| Car | 0.7 | 3D |"),
-        "{out}"
+    // Killed outright, the first cannot release anything itself; the run still resumes from
+    // its newest checkpoint and trains on.
+    drop(first);
+    let resume_from = newest_step(&run).unwrap();
+    let until = resume_from + 2;
+    let extra = ["--resume", "--max-steps", &until.to_string()];
+    let out = common::ok(&starnet(&[&long[..], &extra[..]].concat(), dir.path()));
+    let expected = format!(
+        "resuming from {}",
+        Path::new("runs/tiny/checkpoints")
+            .join(format!("step-{resume_from:08}"))
+            .display()
     );
+    assert!(out.contains(&expected), "{out}");
+    assert_eq!(last_logged_step(&run), until);
     assert!(run.join("eval.json").is_file());
 }
 

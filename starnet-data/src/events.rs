@@ -42,7 +42,8 @@ pub enum Event<'a> {
         /// Units of work in all.
         len: u64,
     },
-    /// A task reached `position` of its `len` units.
+    /// A task reached `position` of its `len` units. A task shared by worker threads sends
+    /// these from each: they may arrive out of order, so an observer keeps the largest.
     Advance {
         /// The task.
         task: TaskId,

@@ -181,6 +181,7 @@ pub fn score_results(
         }
         task.inc(1);
     }
+    drop(task);
     Ok(scorer.finish())
 }
 

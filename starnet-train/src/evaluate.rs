@@ -81,6 +81,7 @@ pub fn evaluate(
         }
         task.inc(ids.len() as u64);
     }
+    drop(task);
     Ok(eval_report(detector, scorer.finish(), &latencies))
 }
 

@@ -6,6 +6,7 @@
 //! together; [`augment`] returns what it drew.
 
 mod gtdb;
+mod near;
 mod paste;
 mod reflectance;
 mod transforms;
@@ -14,23 +15,6 @@ pub use gtdb::{GTDB_CAPTURE_MARGIN, GTDB_VERSION, GtDatabase, GtEntry, database_
 pub use paste::{DbPasteConfig, paste_from_database};
 pub use reflectance::{ReflectanceAugment, ReflectanceDraw, augment_reflectance};
 pub use transforms::{Scene, flip_y, rotate_box, rotate_boxes, rotate_z, scale, shift_z};
-
-/// Grid cell (m) for finding the points near a box: a car's bird's-eye circle (r ≈ 2.2 m)
-/// spans about 3 × 3 cells.
-const NEAR_CELL_M: f32 = 2.0;
-
-/// A grid of `points` for [`points_near`].
-fn near_grid(points: &[Point]) -> crate::geometry::SpatialGrid {
-    crate::geometry::SpatialGrid::new(points, NEAR_CELL_M)
-}
-
-/// Replaces `out` with the indices of the gridded points (at their positions when gridded)
-/// that `b`'s point test can hold: those within its bird's-eye circle, with a margin.
-fn points_near(grid: &crate::geometry::SpatialGrid, b: &crate::Box3d, out: &mut Vec<u32>) {
-    out.clear();
-    let r = b.bev_radius() + 0.01;
-    grid.within([b.x, b.y, 0.0], r, crate::geometry::GatherMetric::Cylinder, out);
-}
 
 use crate::Point;
 use crate::settings::{Checked, InvalidSetting, non_negative, ordered_range, positive, within};

@@ -3,8 +3,8 @@
 //! as needed to reach the class's target, skipping any whose footprint would touch an existing
 //! or already-pasted box (rotated BEV IoU must be exactly 0).
 
+use super::near::{near_grid, points_near};
 use super::{GtDatabase, Scene};
-use super::{near_grid, points_near};
 use crate::geometry::iou_bev;
 use crate::kitti::ObjectClass;
 use crate::{Box3d, Point};

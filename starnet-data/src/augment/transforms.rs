@@ -1,7 +1,7 @@
 //! The geometric transforms of augmentation as pure functions on a [`Scene`], each with its
 //! inverse. Points and boxes always move together.
 
-use super::{near_grid, points_near};
+use super::near::{near_grid, points_near};
 use crate::kitti::ObjectClass;
 use crate::{Box3d, Point, wrap_angle};
 

@@ -274,13 +274,17 @@ struct Scored {
     score: f32,
 }
 
+/// The score a detection must exceed to be matched at all in the score pass: the devkit's
+/// initial `valid_detection` (`NO_DETECTION`), so a score at or below it, or NaN, never is.
+const SCORE_FLOOR: f32 = -10_000_000.0;
+
 /// The highest-scoring of the `open` detections overlapping object `i` by more than
-/// `min_overlap` (a NaN score never wins, as in the devkit's `score > valid_detection`).
+/// `min_overlap` (the devkit's `score > valid_detection`, from [`SCORE_FLOOR`]).
 fn best_by_score(f: &FrameData, i: usize, min_overlap: f64, open: &[usize]) -> Option<usize> {
     let mut best: Option<Scored> = None;
     for &j in open {
         let score = f.dt[j].score.unwrap_or(0.0);
-        if f.overlaps[j][i] > min_overlap && !score.is_nan() && best.is_none_or(|b| score > b.score) {
+        if f.overlaps[j][i] > min_overlap && score > best.map_or(SCORE_FLOOR, |b| b.score) {
             best = Some(Scored { det: j, score });
         }
     }

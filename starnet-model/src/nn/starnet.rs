@@ -138,9 +138,12 @@ impl StarNetConfig {
 static SEEDED_INIT: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 impl StarNetConfig {
-    /// A network whose initial weights depend on `seed` alone, whatever else the process is
-    /// doing: the device's generator is seeded and every weight drawn (in the module's field
-    /// order; Burn initialises lazily, at first use) while no other seeded initialisation runs.
+    /// A network whose initial weights depend on `seed` alone: the device's generator is seeded
+    /// and every weight drawn at once, in the module's field order (Burn otherwise initialises
+    /// lazily, at first use), while no other `init_seeded` runs. So trainers started together
+    /// in one process each get their seed's weights. (The generator is still Burn's, shared by
+    /// the device: other random tensors drawn on it meanwhile would take part of its stream,
+    /// and a later draw continues from this seed. Nothing in training draws from it.)
     pub fn init_seeded(&self, device: &Device, seed: u64) -> StarNet {
         let _only_one = SEEDED_INIT.lock().unwrap_or_else(|e| e.into_inner());
         device.seed(seed);
@@ -348,6 +351,22 @@ mod tests {
             mask: Tensor::<1>::from_floats(m.as_slice(), dev).reshape([b, c, p]),
             center_valid: Tensor::ones([b, c], dev),
         }
+    }
+
+    #[test]
+    fn seeded_initialisation_depends_on_the_seed_alone_even_from_threads_at_once() {
+        let dev = crate::backend::default_device();
+        let cfg = StarNetConfig::small_car();
+        let weights = |seed| crate::export::named_tensors(&cfg.init_seeded(&dev, seed));
+        let (a, b) = (weights(7), weights(8));
+        assert_eq!(weights(7), a);
+        assert_ne!(a, b);
+        // Four trainers' worth of initialisations racing: each still gets its seed's weights.
+        let raced: Vec<_> = std::thread::scope(|s| {
+            let handles: Vec<_> = [7, 8, 7, 8].map(|seed| s.spawn(move || weights(seed))).into();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        assert!(raced[0] == a && raced[2] == a && raced[1] == b && raced[3] == b);
     }
 
     #[test]

@@ -7,7 +7,6 @@
 use super::schedule::Schedule;
 use crate::config::ExperimentConfig;
 use crate::distributed::Shard;
-
 use crate::{Result, TrainError};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;

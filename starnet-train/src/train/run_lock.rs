@@ -19,9 +19,11 @@ pub struct RunLock {
 }
 
 impl RunLock {
-    /// Takes the lock of run folder `dir` (which exists), or fails with
-    /// [`TrainError::RunInUse`] naming the folder and, when it wrote it, the holder's process.
+    /// Takes the lock of run folder `dir` (created if absent), or fails with
+    /// [`TrainError::RunInUse`] naming the folder and the holder's process as the lock file
+    /// says (the previous holder's, in the instant before a new one rewrites it).
     pub fn acquire(dir: &Path) -> Result<Self> {
+        std::fs::create_dir_all(dir).map_err(|e| DataError::io(dir, e))?;
         let path = dir.join(LOCK_FILE);
         let io = |e| TrainError::from(DataError::io(&path, e));
         // Not truncated on open: the holder's process id stays readable until the lock is ours.

@@ -98,8 +98,9 @@ fn step_pool(threads: usize) -> Result<Arc<rayon::ThreadPool>> {
 }
 
 impl Trainer {
-    /// A fresh model on `device` (an autodiff device; its initial weights drawn from `cfg.seed`
-    /// alone, [`starnet_model::nn::StarNetConfig::init_seeded`]), or the checkpoint `resume_from`; its steps compute on `cfg.train.step_threads` threads of their own.
+    /// A fresh model on `device` (an autodiff device; its initial weights drawn from `cfg.seed`,
+    /// [`starnet_model::nn::StarNetConfig::init_seeded`]), or the checkpoint `resume_from`; its
+    /// steps compute on `cfg.train.step_threads` threads of their own.
     pub fn start(cfg: &ExperimentConfig, resume_from: Option<&Path>, device: &Device) -> Result<Self> {
         let model_cfg = cfg.model_config();
         let adam = AdamConfig::new()

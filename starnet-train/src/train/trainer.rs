@@ -105,11 +105,14 @@ pub struct RunFolder {
 }
 
 impl RunFolder {
-    /// Prepares `dir` for `cfg` and takes its writer's lock ([`RunLock`]: a folder another
-    /// trainer is writing is refused); a folder holding checkpoints needs `resume`.
+    /// Takes the writer's lock of `dir` ([`RunLock`]: a folder another trainer is writing is
+    /// refused) and prepares it for `cfg`; a folder holding checkpoints needs `resume`.
     pub fn create(dir: &Path, cfg: &ExperimentConfig, resume: bool) -> Result<Self> {
-        std::fs::create_dir_all(dir).map_err(|e| starnet_data::DataError::io(dir, e))?;
-        let lock = RunLock::acquire(dir)?;
+        Self::create_locked(dir, cfg, resume, RunLock::acquire(dir)?)
+    }
+
+    /// [`RunFolder::create`] with the lock of `dir` already held.
+    pub fn create_locked(dir: &Path, cfg: &ExperimentConfig, resume: bool, lock: RunLock) -> Result<Self> {
         let checkpoints = dir.join("checkpoints");
         let resume_from = latest_checkpoint(&checkpoints);
         if resume_from.is_some() && !resume {
@@ -207,7 +210,6 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
         };
         report_step(&record, task, log, cfg.train.log_every, schedule.total)?;
         if schedule.epoch_ends(record.step) {
-            // The training bar steps aside while the evaluation draws its own.
             end_epoch(cfg, &run, &mut trainer, log, &schedule, &val_set)?;
         }
     }
@@ -219,12 +221,14 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     finish(cfg, &run, trainer, &schedule, &val_set)
 }
 
-/// The run folder, ready on every member: replica 0 generates the data when absent and
+/// The run folder, ready on every member: replica 0 takes the folder's lock first (a second
+/// trainer is refused before it touches anything), generates the data when absent and
 /// prepares the folder; the others wait for it, then find the checkpoint to resume from.
 fn prepare_run(cfg: &ExperimentConfig, run_dir: &Path, resume: bool, role: &Role) -> Result<RunFolder> {
     let run = if role.writes() {
+        let lock = RunLock::acquire(run_dir)?;
         ensure_data(cfg)?;
-        Some(RunFolder::create(run_dir, cfg, resume)?)
+        Some(RunFolder::create_locked(run_dir, cfg, resume, lock)?)
     } else {
         None
     };

@@ -39,7 +39,10 @@ impl Observer for Terminal {
                 let bar = self.bars.add(progress_bar(len, label));
                 self.live.lock().unwrap_or_else(|e| e.into_inner()).insert(task, bar);
             }
-            Event::Advance { task, position } => self.with_bar(task, |bar| bar.set_position(position)),
+            // Worker threads' advances may arrive out of order: a bar never moves back.
+            Event::Advance { task, position } => {
+                self.with_bar(task, |bar| bar.set_position(position.max(bar.position())))
+            }
             Event::Status { task, text } => self.with_bar(task, |bar| bar.set_message(text.to_string())),
             Event::Log { text, .. } if !self.drawn => eprintln!("{text}"),
             Event::End { task } => {
