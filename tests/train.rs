@@ -396,3 +396,238 @@ fn bad_configs_and_checkpoints_are_named() {
         "{err}"
     );
 }
+
+/// The named float tensors of a checkpoint's `model.bpk` (the weights trained, not the EMA).
+fn named_tensors(model_bpk: &Path, config: &Path) -> std::collections::BTreeMap<String, Vec<f32>> {
+    use burn::store::ModuleSnapshot;
+    let cfg = load_config(config, &[]).unwrap();
+    let model = load_model(
+        model_bpk,
+        cfg.model_config().init(&starnet_model::backend::default_device()),
+    )
+    .unwrap();
+    model
+        .collect(None, None, false)
+        .into_iter()
+        .map(|t| {
+            let bytes = t.to_bytes().unwrap();
+            let values = bytes
+                .chunks_exact(4)
+                .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+                .collect();
+            (t.name.clone(), values)
+        })
+        .collect()
+}
+
+/// Cyclist anchors (2 rotations of one prior, where the car model has 4): the classification
+/// and box heads no longer fit.
+const TINY_CYCLIST: &str = r#"
+base = "tiny.toml"
+[data]
+classes = ["Cyclist"]
+[model.anchors]
+grid = 5
+extent = 1.294
+rotations = [0.0, 1.5707964]
+[[model.anchors.priors]]
+size = [1.76, 0.6, 1.73]
+z = -0.6
+[train]
+epochs = 2
+keep_last = 5
+freeze_featurizer_epochs = 1
+"#;
+
+#[test]
+fn a_car_model_fine_tunes_to_cyclists_and_each_checkpoint_is_evaluated() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = tiny_config(dir.path());
+    let sets = ["--set", "train.epochs=2", "--set", "train.keep_last=5"];
+    let o = starnet(
+        &[&["train", "--config", cfg.to_str().unwrap()][..], &sets].concat(),
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let car = dir.path().join("runs/tiny");
+    // Every kept checkpoint evaluated, with the run's table and plot.
+    let o = starnet(&["eval", "--run", car.to_str().unwrap()], dir.path());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let steps = starnet_train::train::step_checkpoints(&car.join("checkpoints"));
+    assert_eq!(steps.len(), 2, "two epochs, two step checkpoints");
+    assert_eq!(out.matches("headline AP").count(), 2, "{out}");
+    let evals = car.join("eval-val");
+    let table = std::fs::read_to_string(evals.join("run_eval.md")).unwrap();
+    assert_eq!(table.lines().count(), 4, "{table}");
+    assert!(table.contains(&format!("| {} |", steps[1].step)), "{table}");
+    assert!(
+        std::fs::read(evals.join("run_eval_ap.png"))
+            .unwrap()
+            .starts_with(b"\x89PNG")
+    );
+    for c in &steps {
+        assert!(evals.join(format!("step-{:08}/eval.json", c.step)).is_file());
+    }
+    // The last checkpoint's scores are the final evaluation's (the same weights, budget and seed).
+    let read = |p: &Path| -> serde_json::Value { serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap() };
+    let last = read(&evals.join(format!("step-{:08}/eval.json", steps[1].step)));
+    assert_eq!(last["classes"], read(&car.join("eval.json"))["classes"]);
+
+    // Fine-tune to cyclists from the car model's best checkpoint, the featurizer held for an epoch.
+    std::fs::write(dir.path().join("cyclist.toml"), TINY_CYCLIST).unwrap();
+    let best = car.join("checkpoints/best");
+    let cyc_run = dir.path().join("runs/cyclist");
+    let o = starnet(
+        &[
+            "train",
+            "--config",
+            "cyclist.toml",
+            "--init",
+            best.to_str().unwrap(),
+            "--run",
+            cyc_run.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("re-initialised") && out.contains("cls_head.weight"),
+        "{out}"
+    );
+    let init = read(&cyc_run.join("init.json"));
+    let fresh: Vec<&str> = init["reinitialised"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["name"].as_str().unwrap())
+        .collect();
+    for head in ["cls_head.weight", "cls_head.bias", "box_head.weight"] {
+        assert!(fresh.contains(&head), "{head} not re-initialised: {fresh:?}");
+    }
+    assert!(fresh.iter().all(|n| n.contains("_head.")), "{fresh:?}");
+    // The featurizer is the car model's after the frozen epoch, and trained after the next.
+    let source = named_tensors(&best.join("ema.bpk"), &car.join("config.toml"));
+    let cyc_steps = starnet_train::train::step_checkpoints(&cyc_run.join("checkpoints"));
+    let cyc_config = cyc_run.join("config.toml");
+    let after = |i: usize| named_tensors(&cyc_steps[i].path.join("model.bpk"), &cyc_config);
+    let (frozen, trained) = (after(0), after(1));
+    // Its weights, not the BatchNorm running statistics (which follow the data while frozen).
+    let featurizer: Vec<&String> = source
+        .keys()
+        .filter(|k| k.starts_with("featurizer.") && !k.contains("running_"))
+        .collect();
+    assert!(!featurizer.is_empty());
+    for k in &featurizer {
+        assert_eq!(frozen[*k], source[*k], "{k} moved while frozen");
+    }
+    assert!(
+        featurizer.iter().any(|k| trained[*k] != source[*k]),
+        "the featurizer never trained"
+    );
+    assert!(
+        frozen["proj.weight"] != source["proj.weight"],
+        "the projection did not train while frozen"
+    );
+}
+
+/// The tiny car model on the simulator's 360° labels, centers all around the sensor.
+const TINY_360: &str = r#"
+base = "tiny.toml"
+[data]
+labels = "label_360"
+[pipeline.pool]
+x_range = [-40.0, 40.0]
+y_range = [-40.0, 40.0]
+camera_frustum = false
+"#;
+
+#[test]
+fn the_simulator_in_the_custom_layout_trains_to_the_same_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_config(dir.path());
+    std::fs::write(dir.path().join("tiny-360.toml"), TINY_360).unwrap();
+    let train = |run: &str, sets: &[&str]| {
+        let args = [&["train", "--config", "tiny-360.toml", "--run", run][..], sets].concat();
+        let o = starnet(&args, dir.path());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let eval = std::fs::read_to_string(dir.path().join(run).join("eval.json")).unwrap();
+        serde_json::from_str::<serde_json::Value>(&eval).unwrap()
+    };
+    let kitti = train("runs/kitti-layout", &[]);
+    let data = dir.path().join("data");
+    let custom = dir.path().join("custom");
+    let o = starnet(
+        &[
+            "convert",
+            "--from",
+            data.to_str().unwrap(),
+            "--to",
+            custom.to_str().unwrap(),
+            "--layout",
+            "custom",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(custom.join("points/000000.npy").is_file() && !custom.join("training").exists());
+    let root = format!("data.root={:?}", custom.display().to_string());
+    // A custom root with the camera's frustum is a config error naming the key.
+    let o = starnet(
+        &[
+            "eval",
+            "--checkpoint",
+            "runs/kitti-layout/checkpoints/best",
+            "--set",
+            &root,
+            "--set",
+            "pipeline.pool.camera_frustum=true",
+        ],
+        dir.path(),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("pipeline.pool.camera_frustum"),
+        "{err}"
+    );
+    let own = train(
+        "runs/custom-layout",
+        &["--set", &root, "--set", "data.simulate_frames=0"],
+    );
+    // Training saw the same data: every step's losses to the bit (the log's speed aside).
+    let losses = |run: &str| -> Vec<serde_json::Value> {
+        std::fs::read_to_string(dir.path().join(run).join("log.jsonl"))
+            .unwrap()
+            .lines()
+            .map(|l| {
+                let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+                v.as_object_mut().unwrap().remove("frames_per_s");
+                v
+            })
+            .collect()
+    };
+    let steps = losses("runs/kitti-layout");
+    assert!(steps.len() >= 6 && steps.iter().all(|s| s["loss"].as_f64().unwrap() > 0.0));
+    assert_eq!(steps, losses("runs/custom-layout"));
+    // No KITTI metrics without a camera; the Waymo-style ones to the digit.
+    assert_eq!(kitti["classes"], serde_json::json!([]));
+    assert!(kitti["waymo"][0]["levels"][0]["ap"].as_f64().is_some(), "{kitti}");
+    for key in ["frames", "classes", "waymo", "by_range"] {
+        assert_eq!(kitti[key], own[key], "{key}");
+    }
+    // Converting into a folder that holds files is refused, and nothing is written there.
+    let o = starnet(
+        &[
+            "convert",
+            "--from",
+            data.to_str().unwrap(),
+            "--to",
+            custom.to_str().unwrap(),
+            "--layout",
+            "custom",
+        ],
+        dir.path(),
+    );
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("not empty"));
+}

@@ -32,7 +32,7 @@ pub enum DataError {
         path: PathBuf,
         /// 0-based index of the point.
         index: usize,
-        /// `x`, `y`, `z` or `reflectance`.
+        /// `x`, `y`, `z`, `reflectance` (KITTI) or `intensity` (other point clouds).
         field: &'static str,
         /// The offending value.
         value: f32,
@@ -65,6 +65,64 @@ pub enum DataError {
         /// The panic message.
         message: String,
     },
+    /// A point-cloud path whose extension is none of `crate::cloud::CLOUD_EXTENSIONS`: the
+    /// extension is what picks the reader.
+    #[error("{path}: not a point-cloud file name: the extension must be one of .bin, .pcd, .ply, .npy")]
+    UnknownCloudExtension {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A cloud written under an extension of another format, which [`crate::cloud::read_cloud`]
+    /// would then misread.
+    #[error("{path}: a {format} cloud must be written to a `.{extension}` file")]
+    WrongCloudExtension {
+        /// The file.
+        path: PathBuf,
+        /// The format asked for, e.g. `PCD (binary)`.
+        format: String,
+        /// The extension that format takes.
+        extension: &'static str,
+    },
+    /// A point-cloud header (PCD, PLY, `.npy`) that is malformed, inconsistent or describes a
+    /// cloud this crate does not read (e.g. no `x` field, an integer dtype).
+    #[error("{path}: {message}")]
+    CloudHeader {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, what was found and what is accepted.
+        message: String,
+    },
+    /// A point-cloud header that declares more data than the file holds.
+    #[error(
+        "{path}: the header declares {needed} {unit} of point data but the file has {available}; it is truncated or its header is wrong"
+    )]
+    CloudTruncated {
+        /// The file.
+        path: PathBuf,
+        /// What the header declares.
+        needed: u64,
+        /// What the file holds.
+        available: u64,
+        /// `bytes` (binary encodings) or `lines` (text encodings).
+        unit: &'static str,
+    },
+    /// Point-cloud data (after a valid header) that does not parse.
+    #[error("{path}: {message}")]
+    CloudData {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, with the point's index where known.
+        message: String,
+    },
+    /// A cloud without an intensity channel written as a KITTI `.bin`, which has no way to say
+    /// so: the zeros would be read back as measured reflectance.
+    #[error(
+        "{path}: the cloud has no intensity channel and a KITTI .bin cannot say so (its zeros would read as measured reflectance); write .npy, .pcd or .ply instead"
+    )]
+    NoIntensityChannel {
+        /// The file.
+        path: PathBuf,
+    },
     /// A frame listed in a split (or asked for) whose file is absent.
     #[error("frame {frame}: {path} does not exist")]
     MissingFile {
@@ -72,6 +130,24 @@ pub enum DataError {
         frame: String,
         /// The expected file.
         path: PathBuf,
+    },
+    /// A point cloud without an intensity channel where the reflectance is read (a model whose
+    /// `pipeline.gather.reflectance` is `measured`, or a conversion to KITTI's `.bin`).
+    #[error(
+        "{path}: the cloud has no intensity channel, and this model reads the reflectance: use a geometry-only model (pipeline.gather.reflectance = \"ignored\", as the quickstart's) or a cloud with intensity"
+    )]
+    MissingIntensity {
+        /// The file.
+        path: PathBuf,
+    },
+    /// Camera labels asked of a dataset in the custom layout, whose labels are LiDAR-frame boxes
+    /// all around the sensor.
+    #[error(
+        "{root}: a dataset in the custom layout (points/, labels/) has all-around labels only: set data.labels = \"label_360\""
+    )]
+    CustomLayoutLabels {
+        /// The dataset root.
+        root: PathBuf,
     },
 }
 

@@ -1,6 +1,7 @@
 //! StarNet data: box geometry, KITTI I/O, and (in later modules) the LiDAR simulator,
-//! center sampling, neighbourhoods and augmentation. No deep-learning dependency: every
-//! function here is plain Rust on slices, so data-loader threads can run it.
+//! center sampling, neighbourhoods and augmentation. [`cloud`] reads and writes the point clouds
+//! of other LiDARs (PCD, PLY, `.npy`). No deep-learning dependency: every function here is plain
+//! Rust on slices, so data-loader threads can run it.
 //!
 //! # Frames
 //!
@@ -37,6 +38,10 @@
 #![warn(missing_docs)]
 
 pub mod augment;
+pub mod class;
+pub mod cloud;
+pub mod convert;
+pub mod custom;
 pub mod error;
 pub mod events;
 pub mod geometry;

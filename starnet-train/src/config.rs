@@ -10,8 +10,8 @@
 use crate::{Result, TrainError};
 use serde::{Deserialize, Serialize};
 use starnet_data::augment::AugmentConfig;
-use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
-use starnet_data::sampling::{AnchorGrid, PipelineConfig, SliceConfig};
+use starnet_data::kitti::{KittiDataset, LabelSource, Layout, MissingIntensity, ObjectClass};
+use starnet_data::sampling::{AnchorGrid, PipelineConfig, ReflectanceInput, SliceConfig};
 use starnet_data::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive, width};
 use starnet_model::assign::AssignConfig;
 use starnet_model::backend::DeviceChoice;
@@ -164,6 +164,9 @@ pub struct TrainSection {
     pub eval_every: usize,
     /// Checkpoints kept besides the best.
     pub keep_last: usize,
+    /// Epochs at the start during which the point featurizer is held fixed and only the
+    /// projection and heads learn (fine-tuning with `train --init`; 0: never).
+    pub freeze_featurizer_epochs: usize,
     /// Where runs go: `{run_root}/{config file stem}`.
     pub run_root: PathBuf,
 }
@@ -257,6 +260,7 @@ impl Default for ExperimentConfig {
                 log_every: 50,
                 eval_every: 0,
                 keep_last: 2,
+                freeze_featurizer_epochs: 0,
                 run_root: "runs".into(),
             },
             eval: EvalSection {
@@ -294,8 +298,24 @@ impl ExperimentConfig {
     }
 
     /// A split of the config's dataset, read with the config's labels.
+    /// A root in the custom layout (no camera) needs centers all around the sensor: its frames'
+    /// calibration is a stand-in, whose frustum would silently hide most of the scene.
     pub fn dataset(&self, split: &str) -> Result<KittiDataset> {
-        Ok(KittiDataset::open(&self.data.root, Some(split))?.with_labels(self.data.labels))
+        let missing = match self.pipeline.gather.reflectance {
+            ReflectanceInput::Measured => MissingIntensity::Refuse,
+            ReflectanceInput::Ignored => MissingIntensity::Zero,
+        };
+        let ds = KittiDataset::open(&self.data.root, Some(split))?;
+        if ds.layout() == Layout::Custom && self.pipeline.pool.camera_frustum {
+            return Err(TrainError::InvalidArgument {
+                name: "pipeline.pool.camera_frustum".into(),
+                message: format!(
+                    "{} is in the custom layout, which has no camera: set it to false (and data.labels = \"label_360\")",
+                    self.data.root.display()
+                ),
+            });
+        }
+        Ok(ds.with_labels(self.data.labels).with_missing_intensity(missing))
     }
 
     /// NMS settings per class.

@@ -8,6 +8,8 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::GtDatabase;
+use starnet_data::cloud::{CloudFormat, Intensity, PcdEncoding, PlyEncoding, PointCloud, decode_cloud, encode_cloud};
+use starnet_data::custom::parse_custom_labels;
 use starnet_data::kitti::parse_sidecar;
 use starnet_data::kitti::{Calib, KittiDataset, decode_points, encode_points, format_labels, parse_labels};
 use starnet_data::sim::{SynthConfig, simulate_scene_frame};
@@ -230,7 +232,50 @@ pub fn targets(sample: &Path) -> Vec<Target> {
         gt_database(sample),
         checkpoint(),
         export(),
+        custom_labels(),
+        cloud(CloudFormat::Pcd(PcdEncoding::Ascii), "PCD ascii"),
+        cloud(CloudFormat::Pcd(PcdEncoding::Binary), "PCD binary"),
+        cloud(CloudFormat::Pcd(PcdEncoding::BinaryCompressed), "PCD binary_compressed"),
+        cloud(CloudFormat::Ply(PlyEncoding::Ascii), "PLY ascii"),
+        cloud(CloudFormat::Ply(PlyEncoding::BinaryLittleEndian), "PLY binary"),
+        cloud(CloudFormat::Npy, "NumPy .npy"),
     ]
+}
+
+/// A simulated sweep's first points in `format`, read back by extension.
+fn cloud(format: CloudFormat, name: &'static str) -> Target {
+    let points = simulated(3).points[..200].to_vec();
+    let path = PathBuf::from(format!("fuzz.{}", format.kind().extension()));
+    let encode = |intensity| {
+        encode_cloud(
+            &PointCloud {
+                points: points.clone(),
+                intensity,
+            },
+            format,
+            &path,
+        )
+        .unwrap()
+    };
+    Target {
+        name,
+        corpus: vec![encode(Intensity::Measured), encode(Intensity::Absent)],
+        text: matches!(
+            format,
+            CloudFormat::Pcd(PcdEncoding::Ascii) | CloudFormat::Ply(PlyEncoding::Ascii)
+        ),
+        run: Box::new(move |b| decode_cloud(b, &path).is_ok()),
+    }
+}
+
+fn custom_labels() -> Target {
+    let text = "12.3456 -3.2100 -0.9500 3.9000 1.6300 1.5200 0.0100 Car\n4.0 1.5 -1.0 0.8 0.6 1.7 -3.1 Pedestrian\n";
+    Target {
+        name: "custom labels",
+        corpus: vec![text.as_bytes().to_vec()],
+        text: true,
+        run: Box::new(|b| text_of(b).is_some_and(|t| parse_custom_labels(t, Path::new("fuzz.txt")).is_ok())),
+    }
 }
 
 const INTERESTING_BYTES: [u8; 8] = [0, 0xff, 0x7f, 0x80, b'\n', b' ', b'-', b'9'];

@@ -1,9 +1,12 @@
 //! A KITTI object-detection root: `ROOT/{training,testing}/{velodyne,label_2,calib,image_2}`
 //! and `ROOT/ImageSets/*.txt`; with the simulator's data, `label_360/` may stand in for
-//! `label_2/` (every object around the sensor, not only the camera's view).
+//! `label_2/` (every object around the sensor, not only the camera's view). The same type reads
+//! the custom layout of a LiDAR without a camera ([`crate::custom`]: `points/`, `labels/`).
 
 use super::sidecar::read_sidecar;
 use super::{Calib, ImageSize, KittiObject, ObjectClass, observation_angle, read_labels, read_points, read_split};
+use crate::cloud::{Intensity, read_cloud};
+use crate::custom::{CustomObject, POINTS_DIR, is_custom_layout, labels_path, points_path, read_custom_labels};
 use crate::{Box3d, DataError, Point, Result};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -18,6 +21,25 @@ pub enum LabelSource {
     /// The simulator's `label_360/` sidecar: every object around the sensor (Waymo-style).
     #[serde(rename = "label_360")]
     AllAround,
+}
+
+/// How a dataset's files are laid out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Layout {
+    /// KITTI's object layout (`training/velodyne`, `label_2`, `calib`, ...).
+    Kitti,
+    /// The custom layout of a LiDAR without a camera ([`crate::custom`]).
+    Custom,
+}
+
+/// What loading does with a point cloud that has no intensity channel (an N × 3 `.npy`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum MissingIntensity {
+    /// An error: the model reads the reflectance, and zeros would be misread as dark surfaces.
+    #[default]
+    Refuse,
+    /// The reflectance is 0: for a geometry-only model, which never reads it.
+    Zero,
 }
 
 /// One loaded frame.
@@ -53,25 +75,51 @@ pub struct KittiDataset {
     subset: &'static str,
     ids: Vec<String>,
     labels: LabelSource,
+    layout: Layout,
+    missing_intensity: MissingIntensity,
 }
 
 impl KittiDataset {
     /// Opens `root`. With a split name (`train`, `val`, `test`, ...) the ids come from
     /// `ImageSets/{split}.txt` (the `test` split reads `testing/`); without one, every `.bin` in
-    /// `training/velodyne/` is listed in id order.
+    /// `training/velodyne/` (every `.npy` in `points/` of the custom layout) is listed in id
+    /// order. A root with `points/` and no `training/` is in the custom layout, whose labels are
+    /// all around the sensor ([`LabelSource::AllAround`]).
     pub fn open(root: impl AsRef<Path>, split: Option<&str>) -> Result<Self> {
         let root = root.as_ref().to_path_buf();
+        let layout = match is_custom_layout(&root) {
+            true => Layout::Custom,
+            false => Layout::Kitti,
+        };
         let subset = if split == Some("test") { "testing" } else { "training" };
-        let ids = match split {
-            Some(s) => read_split(&root.join("ImageSets").join(format!("{s}.txt")))?,
-            None => list_ids(&root.join(subset).join("velodyne"))?,
+        let ids = match (split, layout) {
+            (Some(s), _) => read_split(&root.join("ImageSets").join(format!("{s}.txt")))?,
+            (None, Layout::Kitti) => list_ids(&root.join(subset).join("velodyne"), "bin")?,
+            (None, Layout::Custom) => list_ids(&root.join(POINTS_DIR), "npy")?,
         };
         Ok(Self {
             root,
             subset,
             ids,
-            labels: LabelSource::Camera,
+            labels: match layout {
+                Layout::Kitti => LabelSource::Camera,
+                Layout::Custom => LabelSource::AllAround,
+            },
+            layout,
+            missing_intensity: MissingIntensity::Refuse,
         })
+    }
+
+    /// How the files are laid out.
+    pub fn layout(&self) -> Layout {
+        self.layout
+    }
+
+    /// The same frames, with point clouds that lack an intensity channel loaded as `missing`
+    /// says (the default refuses them).
+    pub fn with_missing_intensity(mut self, missing: MissingIntensity) -> Self {
+        self.missing_intensity = missing;
+        self
     }
 
     /// The same frames, labelled from `labels`.
@@ -102,8 +150,13 @@ impl KittiDataset {
 
     /// Loads a frame: points, calib and (on `training`) labels; all must exist. `label_360`
     /// objects become label lines through the calibration (no truncation; the 2D box is the
-    /// projection, empty when the box is behind the camera).
+    /// projection, empty when the box is behind the camera). A frame of the custom layout has
+    /// KITTI's calibration of frame 000000 as a stand-in, through which its labels pass as
+    /// `label_360`'s do.
     pub fn load(&self, id: &str) -> Result<Frame> {
+        if self.layout == Layout::Custom {
+            return self.load_custom(id);
+        }
         let existing = |dir: &str, ext: &str| -> Result<PathBuf> {
             let p = self.path(dir, id, ext);
             if p.is_file() {
@@ -152,13 +205,64 @@ impl KittiDataset {
     }
 }
 
-/// Ids of the `.bin` files in a velodyne folder, sorted.
-fn list_ids(dir: &Path) -> Result<Vec<String>> {
+impl KittiDataset {
+    /// A frame of the custom layout: `points/{id}.npy` and `labels/{id}.txt`, both required.
+    /// The camera-frame labels only exist for the code that reads them.
+    fn load_custom(&self, id: &str) -> Result<Frame> {
+        if self.labels == LabelSource::Camera {
+            return Err(DataError::CustomLayoutLabels {
+                root: self.root.clone(),
+            });
+        }
+        let existing = |p: PathBuf| match p.is_file() {
+            true => Ok(p),
+            false => Err(DataError::MissingFile {
+                frame: id.to_string(),
+                path: p,
+            }),
+        };
+        let points_file = existing(points_path(&self.root, id))?;
+        let cloud = read_cloud(&points_file)?;
+        if cloud.intensity == Intensity::Absent && self.missing_intensity == MissingIntensity::Refuse {
+            return Err(DataError::MissingIntensity { path: points_file });
+        }
+        let calib = Calib::kitti_000000();
+        let objects = read_custom_labels(&existing(labels_path(&self.root, id))?)?
+            .iter()
+            .map(|o| all_around_object(o, &calib))
+            .collect();
+        Ok(Frame {
+            id: id.to_string(),
+            points: cloud.points,
+            objects,
+            calib,
+            image_size: ImageSize::KITTI,
+        })
+    }
+}
+
+/// A custom-layout object as a label line through `calib`, as a `label_360` object becomes one:
+/// fully visible, not truncated.
+fn all_around_object(o: &CustomObject, calib: &Calib) -> KittiObject {
+    let cam = calib.box_to_label(&o.b);
+    KittiObject {
+        class: o.class,
+        truncated: 0.0,
+        occluded: 0,
+        alpha: observation_angle(&cam),
+        bbox: calib.image_bbox(&cam, ImageSize::KITTI).unwrap_or([0.0; 4]),
+        cam,
+        score: None,
+    }
+}
+
+/// Ids of the `.{ext}` files in a folder, sorted.
+fn list_ids(dir: &Path, ext: &str) -> Result<Vec<String>> {
     let entries = std::fs::read_dir(dir).map_err(|e| DataError::io(dir, e))?;
     let mut ids = Vec::new();
     for entry in entries {
         let path = entry.map_err(|e| DataError::io(dir, e))?.path();
-        if path.extension().is_some_and(|e| e == "bin")
+        if path.extension().is_some_and(|e| e == ext)
             && let Some(stem) = path.file_stem()
         {
             ids.push(stem.to_string_lossy().into_owned());

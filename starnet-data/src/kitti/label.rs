@@ -3,68 +3,12 @@
 //! `score`, for detection results. Box fields are in the camera-rect frame; see
 //! [`super::Calib::label_to_box`] for the LiDAR box.
 
+use crate::class::ObjectClass;
 use crate::io::{atomic_write, read_text};
 use crate::{DataError, Result};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// The KITTI object classes (`lingvo` rejects any other type; so do we).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[allow(missing_docs)]
-pub enum ObjectClass {
-    Car,
-    Van,
-    Truck,
-    Pedestrian,
-    #[serde(rename = "Person_sitting")]
-    PersonSitting,
-    Cyclist,
-    Tram,
-    Misc,
-    DontCare,
-}
-
-impl ObjectClass {
-    /// Every class, in KITTI's order.
-    pub const ALL: [ObjectClass; 9] = [
-        Self::Car,
-        Self::Van,
-        Self::Truck,
-        Self::Pedestrian,
-        Self::PersonSitting,
-        Self::Cyclist,
-        Self::Tram,
-        Self::Misc,
-        Self::DontCare,
-    ];
-
-    /// The name as written in label files.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Car => "Car",
-            Self::Van => "Van",
-            Self::Truck => "Truck",
-            Self::Pedestrian => "Pedestrian",
-            Self::PersonSitting => "Person_sitting",
-            Self::Cyclist => "Cyclist",
-            Self::Tram => "Tram",
-            Self::Misc => "Misc",
-            Self::DontCare => "DontCare",
-        }
-    }
-
-    /// Parses a label-file name; `None` for anything KITTI does not define.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|c| c.as_str() == name)
-    }
-}
-
-impl std::fmt::Display for ObjectClass {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
 
 /// A box as a label file stores it, in the camera-rect frame: `(x, y, z)` is the **bottom**
 /// centre, `(h, w, l)` the extents, `ry` the rotation about camera y (0 = length along +x).

@@ -9,15 +9,15 @@ mod dataset;
 mod label;
 mod sidecar;
 mod split;
-mod velodyne;
 
 pub use calib::{Calib, KITTI_000000_CALIB, format_c_exp};
 pub use camera::{ImageSize, observation_angle};
-pub use dataset::{Frame, KittiDataset, LabelSource};
+pub use dataset::{Frame, KittiDataset, LabelSource, Layout, MissingIntensity};
 pub use label::{
-    CameraBox, Difficulty, KittiObject, NO_ALPHA, ObjectClass, format_labels, parse_labels, read_labels, write_labels,
-    write_results,
+    CameraBox, Difficulty, KittiObject, NO_ALPHA, format_labels, parse_labels, read_labels, write_labels, write_results,
 };
 pub use sidecar::{SimObject, parse_sidecar, read_sidecar, write_sidecar};
 pub use split::{parse_split, read_split, write_split};
-pub use velodyne::{decode_points, encode_points, read_points, write_points};
+// The velodyne `.bin` codec lives with the other point-cloud formats.
+pub use crate::class::ObjectClass;
+pub use crate::cloud::{decode_points, encode_points, read_points, write_points};

@@ -324,6 +324,12 @@ impl StarNet {
         all
     }
 
+    /// The parameters of the point featurizer (the StarNet blocks), which fine-tuning can hold
+    /// fixed while the heads adapt.
+    pub fn featurizer_param_ids(&self) -> Vec<burn::module::ParamId> {
+        burn::module::list_param_ids(&self.featurizer)
+    }
+
     /// Whether the model has the direction classifier.
     pub fn has_direction_classifier(&self) -> bool {
         self.dir_head.is_some()

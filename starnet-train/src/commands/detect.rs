@@ -1,38 +1,62 @@
-//! `starnet detect`: the whole pipeline on raw sweeps (velodyne `.bin` files): center sampling,
+//! `starnet detect`: the whole pipeline on raw sweeps (KITTI velodyne `.bin`, PCD, PLY or NumPy
+//! `.npy` point clouds, [`starnet_data::cloud`]): center sampling,
 //! gathering, the network, decoding and NMS, at the config's evaluation budget. For each sweep
 //! it writes `{id}.json` (LiDAR-frame boxes) and, when a calibration is known, `{id}.txt` in
 //! KITTI's result format (boxes that project into image 2, with their 2D boxes).
 //!
 //! The calibration of `ROOT/…/velodyne/{id}.bin` is `--calib FILE` if given, else
 //! `ROOT/…/calib/{id}.txt` when it exists. Without one the centers are sampled all around the
-//! sensor (no camera frustum) and only the JSON is written.
+//! sensor (no camera frustum) and only the JSON is written. A cloud without an intensity channel
+//! needs a geometry-only model (`pipeline.gather.reflectance = "ignored"`, as the quickstart's).
 
 use crate::detector::Detector;
 use crate::evaluate::frame_seed;
 use crate::{Result, TrainError};
+use starnet_data::cloud::{CLOUD_EXTENSIONS, Intensity, read_cloud};
 use starnet_data::io::atomic_write;
-use starnet_data::kitti::{Calib, Frame, ImageSize, read_points, write_results};
+use starnet_data::kitti::{Calib, Frame, ImageSize, write_results};
+use starnet_data::sampling::ReflectanceInput;
+use starnet_data::{DataError, Point};
 use starnet_eval::{DetectedBox, SweepDetections, to_kitti};
 use std::path::{Path, PathBuf};
 
-/// The `.bin` files of `input`: the file itself, or a folder's `.bin` files by name.
+/// The point clouds of `input`: the file itself, or a folder's `.bin`, `.pcd`, `.ply` and `.npy`
+/// files by name.
 pub fn sweep_files(input: &Path) -> Result<Vec<PathBuf>> {
     if input.is_file() {
         return Ok(vec![input.to_path_buf()]);
     }
     let entries = std::fs::read_dir(input).map_err(|e| starnet_data::DataError::io(input, e))?;
+    let is_cloud = |p: &PathBuf| {
+        p.extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| CLOUD_EXTENSIONS.contains(&e))
+    };
     let mut files: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "bin"))
+        .filter(is_cloud)
         .collect();
     files.sort();
     if files.is_empty() {
         return Err(TrainError::NoInput {
             dir: input.to_path_buf(),
-            what: ".bin file".into(),
+            what: format!("point cloud (.{})", CLOUD_EXTENSIONS.join(", .")),
         });
     }
     Ok(files)
+}
+
+/// The points of a sweep; a cloud without intensity only for a model that ignores it.
+fn sweep_points(path: &Path, detector: &Detector) -> Result<Vec<Point>> {
+    let cloud = read_cloud(path)?;
+    let reads_reflectance = detector.pipeline.gather.reflectance == ReflectanceInput::Measured;
+    if cloud.intensity == Intensity::Absent && reads_reflectance {
+        return Err(DataError::MissingIntensity {
+            path: path.to_path_buf(),
+        }
+        .into());
+    }
+    Ok(cloud.points)
 }
 
 /// The calibration of a sweep: `given`, or the KITTI layout's `../calib/{id}.txt`.
@@ -69,7 +93,7 @@ pub fn detect(
         let found = calibration(bin, calib)?;
         let frame = Frame {
             id: id.clone(),
-            points: read_points(bin)?,
+            points: sweep_points(bin, detector)?,
             objects: Vec::new(),
             calib: found.clone().unwrap_or_else(Calib::kitti_000000),
             image_size: ImageSize::KITTI,

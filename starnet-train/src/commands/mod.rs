@@ -8,6 +8,7 @@ pub mod compare_data;
 pub mod coverage;
 pub mod detect;
 pub mod eval;
+pub mod eval_run;
 pub mod inspect;
 pub mod plot;
 pub mod synth;

@@ -146,9 +146,18 @@ pub fn load_checkpoint(dir: &Path, init: impl Fn() -> StarNet, adam: &AdamConfig
     })
 }
 
-/// The `step-*` checkpoints in `dir`, oldest first.
-fn step_checkpoints(dir: &Path) -> Vec<(u64, PathBuf)> {
-    let mut steps: Vec<(u64, PathBuf)> = std::fs::read_dir(dir)
+/// A `step-*` checkpoint of a run.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct StepCheckpoint {
+    /// The steps trained when it was written.
+    pub step: u64,
+    /// Its folder.
+    pub path: PathBuf,
+}
+
+/// The `step-*` checkpoints in `dir` (a run's `checkpoints/`), oldest first.
+pub fn step_checkpoints(dir: &Path) -> Vec<StepCheckpoint> {
+    let mut steps: Vec<StepCheckpoint> = std::fs::read_dir(dir)
         .into_iter()
         .flatten()
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -158,7 +167,7 @@ fn step_checkpoints(dir: &Path) -> Vec<(u64, PathBuf)> {
                 .strip_prefix("step-")?
                 .parse()
                 .ok()
-                .map(|s| (s, p.clone()))
+                .map(|step| StepCheckpoint { step, path: p.clone() })
         })
         .collect();
     steps.sort();
@@ -167,14 +176,14 @@ fn step_checkpoints(dir: &Path) -> Vec<(u64, PathBuf)> {
 
 /// The newest `step-*` checkpoint in `dir`.
 pub fn latest_checkpoint(dir: &Path) -> Option<PathBuf> {
-    step_checkpoints(dir).pop().map(|(_, p)| p)
+    step_checkpoints(dir).pop().map(|c| c.path)
 }
 
 /// Removes all but the newest `keep` `step-*` checkpoints.
 pub fn prune(dir: &Path, keep: usize) {
     let steps = step_checkpoints(dir);
-    for (_, p) in steps.iter().take(steps.len().saturating_sub(keep)) {
-        let _ = std::fs::remove_dir_all(p);
+    for c in steps.iter().take(steps.len().saturating_sub(keep)) {
+        let _ = std::fs::remove_dir_all(&c.path);
     }
 }
 

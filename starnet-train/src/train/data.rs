@@ -12,6 +12,7 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::augment::{GtDatabase, database_path};
+use starnet_data::custom::is_custom_layout;
 use starnet_data::events::{Task, note};
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::loader::Loader;
@@ -47,7 +48,9 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
             expected: SIMULATOR_VERSION,
         });
     }
-    if !root.join("training/velodyne").is_dir() && cfg.data.simulate_frames > 0 {
+    // A dataset in the custom layout is the user's own: nothing is generated beside it.
+    let present = root.join("training/velodyne").is_dir() || is_custom_layout(root);
+    if !present && cfg.data.simulate_frames > 0 {
         note(format!(
             "generating {} simulated frames at {}",
             cfg.data.simulate_frames,

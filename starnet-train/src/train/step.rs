@@ -5,10 +5,11 @@ use super::checkpoint::{Restored, TrainState, load_checkpoint, save_checkpoint};
 use super::clip::{global_norm, scale_to_norm, squared_grad_norms};
 use super::data::TrainItem;
 use super::ema::WeightEma;
+use super::init_from::{InitReport, InitSource, init_from};
 use crate::config::ExperimentConfig;
 use crate::distributed::{Replicas, average, average_gradients, scope};
 use crate::{Result, TrainError};
-use burn::module::Module;
+use burn::module::{Module, ParamId};
 use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::prelude::{Device, Tensor};
@@ -84,6 +85,18 @@ pub struct Trainer {
     pool: Arc<rayon::ThreadPool>,
     /// The replica group of data-parallel training ([`Trainer::with_replicas`]).
     replicas: Option<Arc<dyn Replicas>>,
+    /// The parameters a step updates, when some are held fixed ([`Trainer::set_featurizer`]).
+    trainable: Option<Vec<ParamId>>,
+}
+
+/// Whether a step updates the point featurizer (fine-tuning may hold it fixed at first, as
+/// `train.freeze_featurizer_epochs` does). Its BatchNorm statistics still follow the data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Featurizer {
+    /// Updated with the rest of the model.
+    Trained,
+    /// Held fixed: only the projection and the heads learn.
+    Frozen,
 }
 
 /// The step's pool: `threads` threads, 0 meaning rayon's default (`RAYON_NUM_THREADS`, else one
@@ -133,7 +146,32 @@ impl Trainer {
             device: device.clone(),
             pool: step_pool(cfg.train.step_threads)?,
             replicas: None,
+            trainable: None,
         })
+    }
+
+    /// A fresh trainer whose model starts from the weights of `source` wherever name and shape
+    /// match ([`init_from`]); the optimizer, EMA and position start fresh.
+    pub fn fine_tune(cfg: &ExperimentConfig, source: &InitSource, device: &Device) -> Result<(Self, InitReport)> {
+        let mut trainer = Self::start(cfg, None, device)?;
+        let fresh = trainer.model.take().expect("a new trainer holds its model");
+        let (model, report) = init_from(fresh, &source.model, source.path.clone());
+        let decay = cfg.train.ema_decay;
+        trainer.ema = (decay > 0.0).then(|| WeightEma::new(decay, &model));
+        trainer.model = Some(model);
+        Ok((trainer, report))
+    }
+
+    /// Whether the next steps update the featurizer.
+    pub fn set_featurizer(&mut self, featurizer: Featurizer) {
+        self.trainable = match featurizer {
+            Featurizer::Trained => None,
+            Featurizer::Frozen => {
+                let frozen = self.model().featurizer_param_ids();
+                let all = burn::module::list_param_ids(self.model());
+                Some(all.into_iter().filter(|id| !frozen.contains(id)).collect())
+            }
+        };
     }
 
     /// Makes this trainer one replica of `group` (data-parallel training, see
@@ -208,7 +246,11 @@ impl Trainer {
         let b = make_batch(&frames, &targets, self.num_classes, &self.device);
         let (out, _) = model.forward_slices(b.input, slices, None);
         let terms = starnet_loss(&out, &b.targets, &self.loss);
-        let grads = GradientsParams::from_grads(terms.total.backward(), model);
+        let mut backward = terms.total.backward();
+        let grads = match &self.trainable {
+            Some(ids) => GradientsParams::from_params(&mut backward, model, ids),
+            None => GradientsParams::from_grads(backward, model),
+        };
         (terms, grads)
     }
 

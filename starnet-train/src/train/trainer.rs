@@ -11,10 +11,11 @@
 
 use super::checkpoint::{latest_checkpoint, prune};
 use super::data::{TrainItem, ensure_data, paste_database, train_loader};
+use super::init_from::{InitReport, InitSource};
 use super::log::{StepRecord, TrainLog, progress_line};
 use super::run_lock::RunLock;
 use super::schedule::Schedule;
-use super::step::Trainer;
+use super::step::{Featurizer, Trainer};
 use crate::budget::Budget;
 use crate::config::{ExperimentConfig, to_toml};
 use crate::detector::Detector;
@@ -43,6 +44,9 @@ pub struct TrainOptions {
     pub stop: Option<Arc<AtomicBool>>,
     /// Train as one replica of this group (data-parallel; [`crate::distributed`]).
     pub replicas: Option<Arc<dyn Replicas>>,
+    /// Fine-tune: a new run starts from this model's weights ([`Trainer::fine_tune`]); a
+    /// resumed run ignores it (its checkpoint holds the weights).
+    pub init: Option<InitSource>,
 }
 
 /// How a run ended.
@@ -173,7 +177,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     let train_set = cfg.dataset(&cfg.data.train_split)?;
     let val_set = cfg.dataset(&cfg.data.val_split)?;
     let schedule = Schedule::new(&cfg.train, train_set.ids().len(), opts.max_steps);
-    let mut trainer = start_trainer(cfg, &run, &role)?;
+    let mut trainer = start_trainer(cfg, &run, &role, opts.init.as_ref())?;
     let mut items = train_loader(
         cfg,
         &train_set,
@@ -196,6 +200,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     while trainer.state.step < schedule.end && !role.any(stop_requested()) {
         let sweeps: Vec<Vec<TrainItem>> = (&mut items).take(local_batch).collect::<std::result::Result<_, _>>()?;
         let lr = schedule.lr(cfg.train.learning_rate, trainer.state.step);
+        trainer.set_featurizer(featurizer_at(cfg, &schedule, trainer.state.step));
         let losses = trainer.step(&sweeps, lr)?;
         let record = StepRecord {
             step: trainer.state.step,
@@ -239,9 +244,19 @@ fn prepare_run(cfg: &ExperimentConfig, run_dir: &Path, resume: bool, role: &Role
     }
 }
 
-/// The trainer of a run on the autodiff CPU device: fresh, or from the newest checkpoint; a
+/// Whether the step after `step` updates the featurizer: not in the first
+/// `train.freeze_featurizer_epochs` epochs.
+fn featurizer_at(cfg: &ExperimentConfig, schedule: &Schedule, step: u64) -> Featurizer {
+    match schedule.epoch(step) < cfg.train.freeze_featurizer_epochs as f64 {
+        true => Featurizer::Frozen,
+        false => Featurizer::Trained,
+    }
+}
+
+/// The trainer of a run on the autodiff CPU device: from the newest checkpoint, else from
+/// `init`'s weights (fine-tuning; the report goes to `init.json` and the log), else fresh; a
 /// replica of the role's group, when it has one.
-fn start_trainer(cfg: &ExperimentConfig, run: &RunFolder, role: &Role) -> Result<Trainer> {
+fn start_trainer(cfg: &ExperimentConfig, run: &RunFolder, role: &Role, init: Option<&InitSource>) -> Result<Trainer> {
     let device = cfg.train.device.device().map_err(|e| TrainError::InvalidArgument {
         name: "train.device".into(),
         message: e.to_string(),
@@ -250,11 +265,41 @@ fn start_trainer(cfg: &ExperimentConfig, run: &RunFolder, role: &Role) -> Result
     if let (Some(dir), true) = (&run.resume_from, role.writes()) {
         note(format!("resuming from {}", dir.display()));
     }
-    let trainer = Trainer::start(cfg, run.resume_from.as_deref(), &device)?;
+    let trainer = match (&run.resume_from, init) {
+        (None, Some(source)) => {
+            let (trainer, report) = Trainer::fine_tune(cfg, source, &device)?;
+            if role.writes() {
+                report_init(&run.dir, &report)?;
+            }
+            trainer
+        }
+        _ => Trainer::start(cfg, run.resume_from.as_deref(), &device)?,
+    };
     match &role.group {
         Some(group) => trainer.with_replicas(Arc::clone(group)),
         None => Ok(trainer),
     }
+}
+
+/// Writes a fine-tuning start's report as `init.json` in the run folder and names the tensors
+/// that kept their fresh initialisation.
+fn report_init(run_dir: &Path, report: &InitReport) -> Result<()> {
+    let json = serde_json::to_string_pretty(report).expect("the report serialises");
+    starnet_data::io::atomic_write(&run_dir.join("init.json"), json.as_bytes())?;
+    note(format!(
+        "initialised from {}: {} tensors loaded, {} re-initialised{}",
+        report.source.display(),
+        report.loaded.len(),
+        report.reinitialised.len(),
+        match report.reinitialised.is_empty() {
+            true => String::new(),
+            false => {
+                let names: Vec<&str> = report.reinitialised.iter().map(|f| f.name.as_str()).collect();
+                format!(" ({})", names.join(", "))
+            }
+        }
+    ));
+    Ok(())
 }
 
 /// A step's record to the log, and to the task's progress: its position and status every

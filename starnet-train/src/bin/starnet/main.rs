@@ -40,6 +40,7 @@ enum Command {
     Config(commands::config::Config),
     Synth(commands::synth::Synth),
     CompareData(commands::compare_data::CompareData),
+    Convert(commands::convert::Convert),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -62,5 +63,6 @@ fn main() -> anyhow::Result<()> {
         Command::Config(c) => c.run(),
         Command::Synth(c) => c.run(),
         Command::CompareData(c) => c.run(),
+        Command::Convert(c) => c.run(),
     }
 }

@@ -1,10 +1,12 @@
-//! `starnet detect`: detect objects on raw sweeps (velodyne .bin files).
+//! `starnet detect`: detect objects on raw sweeps (KITTI .bin, PCD, PLY or NumPy .npy).
 
 use clap::Args;
 use starnet_train::trained::TrainedModel;
 use std::path::PathBuf;
 
-/// Detect objects on raw sweeps (velodyne .bin files): sampling, gathering, the network,
+/// Detect objects on raw sweeps (KITTI velodyne .bin; PCD ascii, binary or binary_compressed; PLY
+/// ascii or binary; NumPy .npy of N x 3 or N x 4; LiDAR frame, x forward, y left, z up, metres;
+/// a cloud without intensity needs a geometry-only model): sampling, gathering, the network,
 /// decoding and NMS at the config's evaluation budget. Writes {id}.json (LiDAR boxes) and,
 /// with a calibration (--calib, or ROOT/.../calib/{id}.txt beside velodyne/), {id}.txt in
 /// KITTI's result format.
@@ -13,7 +15,7 @@ pub struct Detect {
     /// An export folder (holding model.safetensors) or a checkpoint (folder or model.bpk).
     #[arg(long)]
     model: PathBuf,
-    /// A .bin file or a folder of them.
+    /// A point cloud (.bin, .pcd, .ply, .npy) or a folder of them.
     #[arg(long)]
     input: PathBuf,
     /// A KITTI calib file for every sweep.

@@ -8,6 +8,7 @@ use starnet_data::sampling::CenterTarget;
 use starnet_eval::{ResultFormat, score_results, write_scores};
 use starnet_train::budget::Budget;
 use starnet_train::commands::eval::{budget_grid, budget_table, sweep};
+use starnet_train::commands::eval_run::{RunEval, evaluate_run, run_table};
 use starnet_train::evaluate::EvalOptions;
 use starnet_train::temporal::{PrevCenters, open_sequences, temporal_sweep, temporal_table, write_temporal};
 use starnet_train::trained::TrainedModel;
@@ -17,11 +18,17 @@ use std::path::{Path, PathBuf};
 /// a split, KITTI result files, a JSON summary and per-frame latency, at one or more
 /// center/point budgets. Or score any detector's result folder (--results) the same way.
 #[derive(Args)]
-#[command(group(clap::ArgGroup::new("source").required(true).args(["checkpoint", "results"])))]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["checkpoint", "results", "run"])))]
 pub struct Eval {
     /// A checkpoint folder (runs/NAME/checkpoints/best) or its model.bpk.
     #[arg(long)]
     checkpoint: Option<PathBuf>,
+    /// Every kept step-* checkpoint of a run folder (runs/NAME), oldest first, at the config's
+    /// budget (or one --centers/--points): their tables and eval.json files, and the run's
+    /// run_eval.md, run_eval.json and run_eval_ap.png (AP against step) in --out (default
+    /// RUN/eval-SPLIT).
+    #[arg(long, conflicts_with_all = ["checkpoint", "config", "sequences"])]
+    run: Option<PathBuf>,
     /// Score this folder of result files instead of a checkpoint (with --data): `{id}.txt` in
     /// KITTI's result format (camera frame) or `{id}.json` from `starnet detect` (LiDAR
     /// frame), one per frame of the split.
@@ -78,11 +85,43 @@ pub struct Eval {
 
 impl Eval {
     pub fn run(self) -> anyhow::Result<()> {
-        match (&self.checkpoint, &self.results) {
-            (Some(checkpoint), _) => self.checkpoint(checkpoint),
-            (None, Some(results)) => self.results(results),
-            (None, None) => unreachable!("clap requires --checkpoint or --results"),
+        match (&self.checkpoint, &self.results, &self.run) {
+            (Some(checkpoint), _, _) => self.checkpoint(checkpoint),
+            (None, Some(results), _) => self.results(results),
+            (None, None, Some(run)) => self.run_folder(run),
+            (None, None, None) => unreachable!("clap requires --checkpoint, --results or --run"),
         }
+    }
+
+    fn run_folder(&self, run: &Path) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.centers.len() <= 1 && self.points.len() <= 1,
+            "--run evaluates each checkpoint at one budget: give at most one --centers and one --points"
+        );
+        let mut sets = self.sets.clone();
+        sets.extend(self.centers.first().map(|c| format!("eval.num_centers={c}")));
+        sets.extend(self.points.first().map(|p| format!("eval.num_points={p}")));
+        let out = self
+            .out
+            .clone()
+            .unwrap_or_else(|| run.join(format!("eval-{}", self.split)));
+        let what = RunEval {
+            split: &self.split,
+            data: self.data.as_deref(),
+            sets: &sets,
+            out: &out,
+        };
+        let evals = evaluate_run(run, &what, &mut |e| {
+            println!(
+                "step {} ({}): headline AP {:.2}",
+                e.step,
+                e.checkpoint.display(),
+                e.report.headline()
+            );
+        })?;
+        print!("{}", run_table(&evals));
+        println!("wrote {}", out.display());
+        Ok(())
     }
 
     fn results(&self, results: &Path) -> anyhow::Result<()> {

@@ -3,6 +3,7 @@
 
 pub mod compare_data;
 pub mod config;
+pub mod convert;
 pub mod coverage;
 pub mod detect;
 pub mod eval;

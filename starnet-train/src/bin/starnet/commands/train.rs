@@ -3,7 +3,8 @@
 use crate::distributed::{Distributed, abort_job, join_world};
 use anyhow::Context;
 use clap::Args;
-use starnet_train::train::{TrainOptions, run_dir_for, train};
+use starnet_train::train::{InitSource, TrainOptions, run_dir_for, train};
+use starnet_train::trained::TrainedModel;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -37,6 +38,12 @@ pub struct Train {
     /// with that cargo feature). The same as --set train.device=...
     #[arg(long)]
     device: Option<String>,
+    /// Fine-tune: start from another model's weights, a checkpoint folder (runs/NAME/checkpoints/best),
+    /// a model.bpk or an export folder (models/quickstart). Tensors whose shape differs (other
+    /// classes or anchors) are re-initialised and named; the optimizer starts fresh. Hold the
+    /// featurizer fixed at first with --set train.freeze_featurizer_epochs=N.
+    #[arg(long, value_name = "CHECKPOINT_OR_EXPORT")]
+    init: Option<PathBuf>,
 }
 
 impl Train {
@@ -49,6 +56,17 @@ impl Train {
         let flag = Arc::clone(&stop);
         ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed)).context("installing the Ctrl-C handler")?;
         let world = self.distributed.map(|_| join_world()).transpose()?;
+        let init = self
+            .init
+            .map(|path| -> anyhow::Result<InitSource> {
+                let source = TrainedModel::load(&path, None, &[])
+                    .with_context(|| format!("loading the model to fine-tune from, {}", path.display()))?;
+                Ok(InitSource {
+                    path,
+                    model: source.model,
+                })
+            })
+            .transpose()?;
         let opts = TrainOptions {
             resume: self.resume,
             max_steps: self.max_steps,
@@ -56,6 +74,7 @@ impl Train {
             replicas: world
                 .clone()
                 .map(|w| w as Arc<dyn starnet_train::distributed::Replicas>),
+            init,
         };
         let result = train(&cfg, &run_dir, &opts).map_err(|e| match e {
             starnet_train::TrainError::RunExists { .. } => anyhow::anyhow!("{e}; pass --resume to continue it"),

@@ -1,0 +1,141 @@
+//! Converting a dataset between the KITTI layout and the custom layout ([`crate::custom`]),
+//! `starnet convert`. The points pass unchanged (f32 bits); the labels as LiDAR-frame boxes at
+//! `%.4f`, which is how the simulator's `label_360` sidecar stores them, so:
+//!
+//! - custom → KITTI → custom gives the same bytes (points and labels);
+//! - the simulator's KITTI data → custom → KITTI gives the same `velodyne/` bytes, the same
+//!   `ImageSets/` and the same `label_360` boxes and classes; what the custom format has no
+//!   field for (track ids, occlusion, `label_2`) is not carried.
+//!
+//! KITTI → custom takes a frame's `label_360/` when it has one, else its `label_2/` through its
+//! calibration (then only the objects in the camera's view; DontCare is dropped). Custom → KITTI
+//! writes `training/velodyne/`, `training/label_360/` (track id 0, the points inside each box
+//! counted, occlusion 0) and `training/calib/` (KITTI's frame 000000 as a stand-in); such a
+//! dataset is read with `data.labels = "label_360"`.
+
+use crate::cloud::{CloudFormat, Intensity, PointCloud, read_cloud, write_cloud};
+use crate::custom::{CustomObject, labels_path, points_path, read_custom_labels, write_custom_labels};
+use crate::events::Task;
+use crate::io::{atomic_write, read};
+use crate::kitti::{
+    Calib, KittiDataset, ObjectClass, SimObject, read_labels, read_points, read_sidecar, write_sidecar,
+};
+use crate::{DataError, Result};
+use std::path::Path;
+
+/// What a conversion wrote.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Converted {
+    /// Frames converted.
+    pub frames: usize,
+    /// The `ImageSets/*.txt` split files copied, by name.
+    pub splits: Vec<String>,
+}
+
+/// Writes the KITTI dataset at `src` (its `training/` frames) in the custom layout at `dst`.
+pub fn kitti_to_custom(src: &Path, dst: &Path) -> Result<Converted> {
+    let ds = KittiDataset::open(src, None)?;
+    let task = Task::begin("convert", ds.ids().len() as u64);
+    for id in ds.ids() {
+        let points = read_points(&ds.path("velodyne", id, "bin"))?;
+        let cloud = PointCloud {
+            points,
+            intensity: Intensity::Measured,
+        };
+        write_cloud(&points_path(dst, id), &cloud, CloudFormat::Npy)?;
+        write_custom_labels(&labels_path(dst, id), &kitti_objects(&ds, id)?)?;
+        task.inc(1);
+    }
+    Ok(Converted {
+        frames: ds.ids().len(),
+        splits: copy_splits(src, dst)?,
+    })
+}
+
+/// A KITTI frame's objects as custom labels: from `label_360/` when present, else `label_2/`
+/// through the frame's calibration (DontCare dropped).
+fn kitti_objects(ds: &KittiDataset, id: &str) -> Result<Vec<CustomObject>> {
+    let sidecar = ds.path("label_360", id, "txt");
+    if sidecar.is_file() {
+        let objects = read_sidecar(&sidecar)?;
+        return Ok(objects
+            .into_iter()
+            .map(|o| CustomObject { b: o.b, class: o.class })
+            .collect());
+    }
+    let calib = Calib::read(&ds.path("calib", id, "txt"))?;
+    let labels = read_labels(&ds.path("label_2", id, "txt"))?;
+    Ok(labels
+        .iter()
+        .filter(|o| o.class != ObjectClass::DontCare)
+        .map(|o| CustomObject {
+            b: calib.label_to_box(&o.cam),
+            class: o.class,
+        })
+        .collect())
+}
+
+/// Writes the custom dataset at `src` in the KITTI layout at `dst` (see the module docs).
+pub fn custom_to_kitti(src: &Path, dst: &Path) -> Result<Converted> {
+    let ds = KittiDataset::open(src, None)?;
+    let task = Task::begin("convert", ds.ids().len() as u64);
+    let calib = Calib::kitti_000000();
+    let training = dst.join("training");
+    for id in ds.ids() {
+        // A cloud without intensity is refused: KITTI's `.bin` has no way to say so.
+        let cloud = read_cloud(&points_path(src, id))?;
+        write_cloud(
+            &training.join("velodyne").join(format!("{id}.bin")),
+            &cloud,
+            CloudFormat::KittiBin,
+        )?;
+        let objects: Vec<SimObject> = read_custom_labels(&labels_path(src, id))?
+            .into_iter()
+            .map(|o| sidecar_object(o, &cloud.points))
+            .collect();
+        write_sidecar(&training.join("label_360").join(format!("{id}.txt")), &objects)?;
+        calib.write(&training.join("calib").join(format!("{id}.txt")))?;
+        task.inc(1);
+    }
+    Ok(Converted {
+        frames: ds.ids().len(),
+        splits: copy_splits(src, dst)?,
+    })
+}
+
+/// A custom label as a sidecar line: track 0, its points counted, fully visible, outside the
+/// (absent) camera's labels.
+fn sidecar_object(o: CustomObject, points: &[crate::Point]) -> SimObject {
+    SimObject {
+        class: o.class,
+        track_id: 0,
+        num_points: o.b.count_points_inside(points) as u32,
+        rays_toward: 0,
+        rays_hit: 0,
+        occlusion: 0,
+        in_camera: false,
+        b: o.b,
+    }
+}
+
+/// Copies `src/ImageSets/*.txt` to `dst/ImageSets/`; returns the split names.
+fn copy_splits(src: &Path, dst: &Path) -> Result<Vec<String>> {
+    let dir = src.join("ImageSets");
+    if !dir.is_dir() {
+        return Ok(Vec::new());
+    }
+    let entries = std::fs::read_dir(&dir).map_err(|e| DataError::io(&dir, e))?;
+    let mut names = Vec::new();
+    for entry in entries {
+        let path = entry.map_err(|e| DataError::io(&dir, e))?.path();
+        if let (Some(stem), true) = (path.file_stem(), path.extension().is_some_and(|e| e == "txt")) {
+            atomic_write(
+                &dst.join("ImageSets").join(path.file_name().expect("a file")),
+                &read(&path)?,
+            )?;
+            names.push(stem.to_string_lossy().into_owned());
+        }
+    }
+    names.sort();
+    Ok(names)
+}
