@@ -1,6 +1,8 @@
 //! Converting a dataset between the KITTI layout and the custom layout ([`crate::custom`]),
-//! `starnet convert`. The points pass unchanged (f32 bits); the labels as LiDAR-frame boxes at
-//! `%.4f`, which is how the simulator's `label_360` sidecar stores them, so:
+//! `starnet convert`. The points pass unchanged (f32 bits), and so does the text of the box
+//! fields between a `label_360` sidecar and a custom label file: a heading printed as ±3.1416
+//! lies outside [−π, π) and parses to the other end of the range, so printing the parsed value
+//! again would change it. So:
 //!
 //! - custom → KITTI → custom gives the same bytes (points and labels);
 //! - the simulator's KITTI data → custom → KITTI gives the same `velodyne/` bytes, the same
@@ -14,12 +16,10 @@
 //! dataset is read with `data.labels = "label_360"`.
 
 use crate::cloud::{CloudFormat, Intensity, PointCloud, read_cloud, write_cloud};
-use crate::custom::{CustomObject, labels_path, points_path, read_custom_labels, write_custom_labels};
+use crate::custom::{CustomObject, labels_path, parse_custom_labels, points_path};
 use crate::events::Task;
-use crate::io::{atomic_write, read};
-use crate::kitti::{
-    Calib, KittiDataset, ObjectClass, SimObject, read_labels, read_points, read_sidecar, write_sidecar,
-};
+use crate::io::{atomic_write, read, read_text};
+use crate::kitti::{Calib, KittiDataset, ObjectClass, parse_sidecar, read_labels, read_points};
 use crate::{DataError, Result};
 use std::path::Path;
 
@@ -43,7 +43,8 @@ pub fn kitti_to_custom(src: &Path, dst: &Path) -> Result<Converted> {
             intensity: Intensity::Measured,
         };
         write_cloud(&points_path(dst, id), &cloud, CloudFormat::Npy)?;
-        write_custom_labels(&labels_path(dst, id), &kitti_objects(&ds, id)?)?;
+        let lines: String = kitti_objects(&ds, id)?.into_iter().map(|l| l + "\n").collect();
+        atomic_write(&labels_path(dst, id), lines.as_bytes())?;
         task.inc(1);
     }
     Ok(Converted {
@@ -52,15 +53,20 @@ pub fn kitti_to_custom(src: &Path, dst: &Path) -> Result<Converted> {
     })
 }
 
-/// A KITTI frame's objects as custom labels: from `label_360/` when present, else `label_2/`
-/// through the frame's calibration (DontCare dropped).
-fn kitti_objects(ds: &KittiDataset, id: &str) -> Result<Vec<CustomObject>> {
+/// A KITTI frame's objects as custom label lines: from `label_360/` when present (its text),
+/// else `label_2/` through the frame's calibration (DontCare dropped).
+fn kitti_objects(ds: &KittiDataset, id: &str) -> Result<Vec<String>> {
     let sidecar = ds.path("label_360", id, "txt");
     if sidecar.is_file() {
-        let objects = read_sidecar(&sidecar)?;
-        return Ok(objects
-            .into_iter()
-            .map(|o| CustomObject { b: o.b, class: o.class })
+        let text = read_text(&sidecar)?;
+        parse_sidecar(&text, &sidecar)?;
+        // class track x y z dx dy dz heading ... → x y z dx dy dz heading class
+        return Ok(text
+            .lines()
+            .map(|l| {
+                let f: Vec<&str> = l.split_ascii_whitespace().collect();
+                format!("{} {}", f[2..9].join(" "), f[0])
+            })
             .collect());
     }
     let calib = Calib::read(&ds.path("calib", id, "txt"))?;
@@ -68,9 +74,9 @@ fn kitti_objects(ds: &KittiDataset, id: &str) -> Result<Vec<CustomObject>> {
     Ok(labels
         .iter()
         .filter(|o| o.class != ObjectClass::DontCare)
-        .map(|o| CustomObject {
-            b: calib.label_to_box(&o.cam),
-            class: o.class,
+        .map(|o| {
+            let b = calib.label_to_box(&o.cam);
+            CustomObject { b, class: o.class }.to_line()
         })
         .collect())
 }
@@ -89,11 +95,8 @@ pub fn custom_to_kitti(src: &Path, dst: &Path) -> Result<Converted> {
             &cloud,
             CloudFormat::KittiBin,
         )?;
-        let objects: Vec<SimObject> = read_custom_labels(&labels_path(src, id))?
-            .into_iter()
-            .map(|o| sidecar_object(o, &cloud.points))
-            .collect();
-        write_sidecar(&training.join("label_360").join(format!("{id}.txt")), &objects)?;
+        let lines = sidecar_lines(&labels_path(src, id), &cloud.points)?;
+        atomic_write(&training.join("label_360").join(format!("{id}.txt")), lines.as_bytes())?;
         calib.write(&training.join("calib").join(format!("{id}.txt")))?;
         task.inc(1);
     }
@@ -103,19 +106,20 @@ pub fn custom_to_kitti(src: &Path, dst: &Path) -> Result<Converted> {
     })
 }
 
-/// A custom label as a sidecar line: track 0, its points counted, fully visible, outside the
-/// (absent) camera's labels.
-fn sidecar_object(o: CustomObject, points: &[crate::Point]) -> SimObject {
-    SimObject {
-        class: o.class,
-        track_id: 0,
-        num_points: o.b.count_points_inside(points) as u32,
-        rays_toward: 0,
-        rays_hit: 0,
-        occlusion: 0,
-        in_camera: false,
-        b: o.b,
-    }
+/// A custom label file as sidecar lines, the box fields as written: track 0, the points inside
+/// each box counted, fully visible, outside the (absent) camera's labels.
+fn sidecar_lines(labels: &Path, points: &[crate::Point]) -> Result<String> {
+    let text = read_text(labels)?;
+    let objects = parse_custom_labels(&text, labels)?;
+    let rows = text.lines().filter(|l| !l.trim().is_empty());
+    Ok(rows
+        .zip(&objects)
+        .map(|(l, o)| {
+            let f: Vec<&str> = l.split_ascii_whitespace().collect();
+            let inside = o.b.count_points_inside(points);
+            format!("{} 0 {} {inside} 0 0\n", o.class, f[..7].join(" "))
+        })
+        .collect())
 }
 
 /// Copies `src/ImageSets/*.txt` to `dst/ImageSets/`; returns the split names.

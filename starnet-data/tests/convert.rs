@@ -67,6 +67,13 @@ fn a_custom_root_loads_as_the_simulators_360_labels_do() {
     let dir = tempfile::tempdir().unwrap();
     let (sim, custom) = (dir.path().join("sim"), dir.path().join("custom"));
     synth_frames(&sim, 3, 9, &SynthConfig::default(), &|| {}).unwrap();
+    // Headings printed as ±3.1416 lie outside [−π, π): they parse to the other end of the range,
+    // and must reach the custom layout as the same text, not as the parsed value printed again.
+    let sidecar = sim.join("training/label_360/000000.txt");
+    let mut text = std::fs::read_to_string(&sidecar).unwrap();
+    text.push_str("Car 90 -20.0000 3.6490 -0.9952 3.4208 1.7636 1.4381 -3.1416 34 0 0\n");
+    text.push_str("Cyclist 91 -9.0000 -3.6490 -0.9952 1.7600 0.6000 1.7300 3.1416 34 0 0\n");
+    std::fs::write(&sidecar, text).unwrap();
     kitti_to_custom(&sim, &custom).unwrap();
     let kitti = KittiDataset::open(&sim, Some("trainval"))
         .unwrap()
@@ -81,7 +88,7 @@ fn a_custom_root_loads_as_the_simulators_360_labels_do() {
         let boxes = |f: &starnet_data::kitti::Frame| -> Vec<_> {
             f.labelled_boxes()
                 .iter()
-                .map(|(o, b)| (o.class, b.to_array()))
+                .map(|(o, b)| (o.class, b.to_array().map(f32::to_bits)))
                 .collect()
         };
         assert_eq!(boxes(&a), boxes(&b), "frame {id}");
