@@ -558,18 +558,17 @@ fn the_simulator_in_the_custom_layout_trains_to_the_same_figures() {
     let kitti = train("runs/kitti-layout", &[]);
     let data = dir.path().join("data");
     let custom = dir.path().join("custom");
-    let o = starnet(
-        &[
+    let convert = || {
+        let args = [
             "convert",
             "--from",
             data.to_str().unwrap(),
             "--to",
             custom.to_str().unwrap(),
-            "--layout",
-            "custom",
-        ],
-        dir.path(),
-    );
+        ];
+        starnet(&[&args[..], &["--layout", "custom"]].concat(), dir.path())
+    };
+    let o = convert();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(custom.join("points/000000.npy").is_file() && !custom.join("training").exists());
     let root = format!("data.root={:?}", custom.display().to_string());
@@ -616,18 +615,7 @@ fn the_simulator_in_the_custom_layout_trains_to_the_same_figures() {
     for key in ["frames", "classes", "waymo", "by_range"] {
         assert_eq!(kitti[key], own[key], "{key}");
     }
-    // Converting into a folder that holds files is refused, and nothing is written there.
-    let o = starnet(
-        &[
-            "convert",
-            "--from",
-            data.to_str().unwrap(),
-            "--to",
-            custom.to_str().unwrap(),
-            "--layout",
-            "custom",
-        ],
-        dir.path(),
-    );
+    // Converting into a folder that holds files is refused.
+    let o = convert();
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("not empty"));
 }

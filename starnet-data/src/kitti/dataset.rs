@@ -157,17 +157,7 @@ impl KittiDataset {
         if self.layout == Layout::Custom {
             return self.load_custom(id);
         }
-        let existing = |dir: &str, ext: &str| -> Result<PathBuf> {
-            let p = self.path(dir, id, ext);
-            if p.is_file() {
-                Ok(p)
-            } else {
-                Err(DataError::MissingFile {
-                    frame: id.to_string(),
-                    path: p,
-                })
-            }
-        };
+        let existing = |dir: &str, ext: &str| require_file(self.path(dir, id, ext), id);
         let points = read_points(&existing("velodyne", "bin")?)?;
         let calib = Calib::read(&existing("calib", "txt")?)?;
         let image = self.path("image_2", id, "png");
@@ -214,20 +204,13 @@ impl KittiDataset {
                 root: self.root.clone(),
             });
         }
-        let existing = |p: PathBuf| match p.is_file() {
-            true => Ok(p),
-            false => Err(DataError::MissingFile {
-                frame: id.to_string(),
-                path: p,
-            }),
-        };
-        let points_file = existing(points_path(&self.root, id))?;
+        let points_file = require_file(points_path(&self.root, id), id)?;
         let cloud = read_cloud(&points_file)?;
         if cloud.intensity == Intensity::Absent && self.missing_intensity == MissingIntensity::Refuse {
             return Err(DataError::MissingIntensity { path: points_file });
         }
         let calib = Calib::kitti_000000();
-        let objects = read_custom_labels(&existing(labels_path(&self.root, id))?)?
+        let objects = read_custom_labels(&require_file(labels_path(&self.root, id), id)?)?
             .iter()
             .map(|o| all_around_object(o, &calib))
             .collect();
@@ -238,6 +221,17 @@ impl KittiDataset {
             calib,
             image_size: ImageSize::KITTI,
         })
+    }
+}
+
+/// `path` when it is a file, else the frame's missing-file error.
+fn require_file(path: PathBuf, frame: &str) -> Result<PathBuf> {
+    match path.is_file() {
+        true => Ok(path),
+        false => Err(DataError::MissingFile {
+            frame: frame.to_string(),
+            path,
+        }),
     }
 }
 

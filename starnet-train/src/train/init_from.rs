@@ -8,7 +8,7 @@ use burn::store::ModuleSnapshot;
 use burn::store::burn_pack::Tensor as PackTensor;
 use serde::Serialize;
 use starnet_model::nn::StarNet;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 
 /// The model a fine-tuning run starts from, loaded by the caller (e.g. with
@@ -73,8 +73,9 @@ pub fn init_from(mut target: StarNet, source: &StarNet, source_path: PathBuf) ->
         unused: Vec::new(),
     };
     let mut fitting = Vec::new();
-    let mut seen = Vec::new();
+    let mut in_source = HashSet::new();
     for t in source.collect(None, None, false) {
+        in_source.insert(t.name.clone());
         match wanted.get(&t.name) {
             None => report.unused.push(t.name.clone()),
             Some(shape) if *shape != t.shape.to_vec() => report.reinitialised.push(FreshTensor {
@@ -84,18 +85,13 @@ pub fn init_from(mut target: StarNet, source: &StarNet, source_path: PathBuf) ->
                     target: shape.clone(),
                 },
             }),
-            Some(_) => {
-                seen.push(t.name.clone());
-                fitting.push(without_id(t));
-            }
+            Some(_) => fitting.push(without_id(t)),
         }
     }
     let applied = target.apply(fitting, None, None, false);
     report.loaded = applied.applied;
-    let mut absent: Vec<&String> = wanted.keys().filter(|n| !seen.contains(n)).collect();
-    absent.retain(|n| !report.reinitialised.iter().any(|f| &f.name == *n));
-    absent.sort();
-    report.reinitialised.extend(absent.into_iter().map(|n| FreshTensor {
+    let absent = wanted.keys().filter(|n| !in_source.contains(*n));
+    report.reinitialised.extend(absent.map(|n| FreshTensor {
         name: n.clone(),
         reason: Reinitialised::Absent,
     }));

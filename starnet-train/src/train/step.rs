@@ -162,8 +162,12 @@ impl Trainer {
         Ok((trainer, report))
     }
 
-    /// Whether the next steps update the featurizer.
+    /// Whether the next steps update the featurizer. The training loop calls it every step; the
+    /// parameter lists are only built when the choice changes.
     pub fn set_featurizer(&mut self, featurizer: Featurizer) {
+        if (featurizer == Featurizer::Frozen) == self.trainable.is_some() {
+            return;
+        }
         self.trainable = match featurizer {
             Featurizer::Trained => None,
             Featurizer::Frozen => {
