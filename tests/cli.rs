@@ -307,3 +307,57 @@ fn every_subcommand_help_describes_itself_only() {
         }
     }
 }
+
+/// Without the `rerun` feature `view` says how to build it, and writes nothing.
+#[cfg(not(feature = "rerun"))]
+#[test]
+fn view_without_the_rerun_feature_names_the_feature() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scene.rrd");
+    let root = sample_root();
+    let o = starnet(&[
+        "view",
+        "--data",
+        root.to_str().unwrap(),
+        "--frame",
+        "000001",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--features starnet-train/rerun") && err.contains("scene.rrd"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
+
+/// `view` on two real frames with sampled centers: the recording holds each frame's points,
+/// labelled boxes and centers.
+#[cfg(feature = "rerun")]
+#[test]
+fn view_writes_a_recording_of_real_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scene.rrd");
+    let root = sample_root();
+    let args = ["view", "--data", root.to_str().unwrap(), "--frame", "000001", "000002"];
+    let mut args = args.to_vec();
+    args.extend(["--centers", "fps:64", "--out", out.to_str().unwrap()]);
+    assert!(stdout(&starnet(&args)).contains("2 frames"));
+    let entities = starnet_train::render::read_rrd(&out).unwrap();
+    let get = |path: &str| {
+        entities
+            .iter()
+            .find(|e| e.path == path)
+            .unwrap_or_else(|| panic!("{path}: {entities:?}"))
+    };
+    let ds = starnet_data::kitti::KittiDataset::open(&root, None).unwrap();
+    let points: usize = ["000001", "000002"]
+        .map(|id| ds.load(id).unwrap().points.len())
+        .iter()
+        .sum();
+    assert_eq!((get("/world/points").rows, get("/world/points").instances), (2, points));
+    assert_eq!(get("/world/centers").instances, 128);
+    assert!(get("/world/ground_truth").instances > 0);
+}

@@ -2,7 +2,15 @@
 
 use crate::{DataError, Result};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The temporary file beside `path` that [`atomic_write`] writes before renaming it over
+/// `path`: hidden, in the same directory (so the rename is atomic) and unique to this process.
+/// Writers that stream into a file of their own (a Rerun recording) use it the same way.
+pub fn temp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.tmp{}", std::process::id()))
+}
 
 /// Writes `bytes` to `path` atomically: into a temporary file in the same directory, flushed
 /// to disk, then renamed over `path`. A crash leaves either the old file or the new one.
@@ -13,8 +21,7 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
         _ => Path::new("."),
     };
     std::fs::create_dir_all(dir).map_err(|e| DataError::io(dir, e))?;
-    let name = path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    let tmp = temp_path(path);
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;

@@ -1,7 +1,7 @@
 //! The GPU path against the CPU (cargo feature `vulkan`): StarNet's forward, loss, backward and an
 //! Adam step on a Vulkan device equal flex's to 1e-4, and a short training run on it converges.
 //! Without a GPU, Mesa's lavapipe (Debian `mesa-vulkan-drivers`, a Vulkan on the CPU) is the
-//! device; `scripts/gpu_check.sh` runs the same on a GPU machine.
+//! device and crashes (BENCHMARKS.md); `scripts/gpu_check.sh` runs it on a GPU machine.
 #![cfg(feature = "vulkan")]
 
 use burn::module::{Module, ModuleVisitor, Param};
@@ -52,6 +52,11 @@ fn deviation(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).fold(0f32, |m, (x, y)| m.max((x - y).abs())) / scale
 }
 
+/// The largest absolute difference.
+fn largest_difference(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).fold(0f32, |m, (x, y)| m.max((x - y).abs()))
+}
+
 /// Every parameter's gradient, in visiting order.
 fn gradients(model: &StarNet, grads: &GradientsParams) -> Vec<Vec<f32>> {
     struct Collect<'a>(&'a GradientsParams, Vec<Vec<f32>>);
@@ -84,7 +89,9 @@ fn vulkan_computes_what_flex_computes_and_trains() {
     );
     flex.seed(3);
     let on_flex = StarNetConfig::small_car().init(&flex);
-    let on_gpu = on_flex.clone().to_device(&gpu);
+    // `fork`, not `to_device`: the copy's parameters are leaves of the GPU's graph (moved with
+    // `to_device`, their gradients would flow back to flex's parameters).
+    let on_gpu = on_flex.clone().fork(&gpu);
     // Forward and loss.
     let (of, og) = (on_flex.forward(bf.input.clone()), on_gpu.forward(bg.input.clone()));
     let d = deviation(&host(of.cls_logits), &host(og.cls_logits));
@@ -99,17 +106,30 @@ fn vulkan_computes_what_flex_computes_and_trains() {
     );
     let (hf, hg) = (gradients(&on_flex, &gf), gradients(&on_gpu, &gg));
     assert_eq!(hf.len(), hg.len());
+    let mut worst_gradient = 0f32;
     for (i, (a, b)) in hf.iter().zip(&hg).enumerate() {
         let d = deviation(a, b);
         assert!(d < 1e-4, "gradient {i} differs by {d:e}");
+        worst_gradient = worst_gradient.max(largest_difference(a, b));
     }
-    // One Adam step.
-    let adam = AdamConfig::new().with_epsilon(1e-6);
+    // One Adam step. Its first update is lr·g / (|g| + ε), whose slope in g is at most lr / ε:
+    // the two devices' updates may differ by lr / ε times their gradients' difference, beside
+    // the weights' own rounding. With the training's ε (1e-6) that is a thousandfold, and a
+    // bias whose gradient is near 0 moves by ±lr on either side of it (seen on an H200: a
+    // BatchNorm shift 9 % apart); with ε = 1e-3 the update is smooth in the gradient.
+    let (lr, epsilon) = (1e-3, 1e-3);
+    let adam = AdamConfig::new().with_epsilon(epsilon);
     let (mut of, mut og) = (adam.init(), adam.init());
-    let (on_flex, mut on_gpu) = (of.step(1e-3, on_flex, gf), og.step(1e-3, on_gpu, gg));
+    let (on_flex, mut on_gpu) = (of.step(lr, on_flex, gf), og.step(lr, on_gpu, gg));
+    let amplified = (lr / epsilon as f64) as f32 * worst_gradient;
     for (a, b) in named_tensors(&on_flex).iter().zip(named_tensors(&on_gpu)) {
-        let d = deviation(&a.data, &b.data);
-        assert!(d < 1e-4, "{} after Adam differs by {d:e}", a.name);
+        let scale = a.data.iter().fold(0f32, |m, v| m.max(v.abs()));
+        let d = largest_difference(&a.data, &b.data);
+        assert!(
+            d <= 1e-4 * scale + amplified,
+            "{} after Adam differs by {d:e} (scale {scale:e}, gradients' worst difference {worst_gradient:e})",
+            a.name
+        );
     }
     // A short run on the GPU alone converges.
     let first = lg_v;

@@ -19,6 +19,14 @@ pub enum TrainError {
         /// The encoder's message.
         message: String,
     },
+    /// Writing or reading a Rerun recording (`.rrd`, feature `rerun`) failed.
+    #[error("{path}: Rerun recording: {message}")]
+    Recording {
+        /// The recording file.
+        path: PathBuf,
+        /// What failed (Rerun's message).
+        message: String,
+    },
     /// A config file (or `--set` override) with an unknown key, a wrong type or a bad value.
     #[error("{file}: {key}: {message}")]
     Config {

@@ -4,18 +4,14 @@
 //! image and y (left) to the left, so the picture is what a viewer above the car would see.
 
 use super::font::FAMILY;
+use super::frame_scene::{RenderOptions, SceneBox, frame_scene};
 use super::{Canvas, Rgb};
 use crate::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use starnet_data::augment::{AugmentConfig, GtDatabase, Scene, augment};
-use starnet_data::kitti::read_sidecar;
-use starnet_data::kitti::{Frame, KittiDataset, ObjectClass, read_labels};
-use starnet_data::sampling::{CenterPoolConfig, CenterZ, Centers, Sampler, center_pool, sample_centers};
-use starnet_data::{Box3d, DataError, Point};
-use std::path::{Path, PathBuf};
+use starnet_data::Point;
+use starnet_data::kitti::KittiDataset;
+use starnet_data::sampling::Centers;
 
 /// Extent and resolution of a bird's-eye view (LiDAR-frame metres).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,21 +68,10 @@ impl Default for BevOptions {
     }
 }
 
-/// A box to draw, with its class and (for predictions) score.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BevBox {
-    /// Object class, written beside the box.
-    pub class: ObjectClass,
-    /// The box in the LiDAR frame.
-    pub b: Box3d,
-    /// Detection score, written after the class.
-    pub score: Option<f32>,
-}
-
 const BACKGROUND: Rgb = [14, 16, 22];
 const RING: Rgb = [48, 52, 64];
-const GT: Rgb = [60, 230, 100];
-const PRED: Rgb = [255, 140, 20];
+pub(super) const GT: Rgb = [60, 230, 100];
+pub(super) const PRED: Rgb = [255, 140, 20];
 const TEXT: Rgb = [230, 230, 230];
 /// Colour of sampled centers.
 pub const CENTER: Rgb = [255, 60, 220];
@@ -94,7 +79,7 @@ pub const CENTER: Rgb = [255, 60, 220];
 pub const SEEDED: Rgb = [40, 220, 255];
 
 /// Height colour: blue at the road (z ≈ −1.7 m), through green, to red at +1 m and above.
-fn height_colour(z: f32) -> Rgb {
+pub(super) fn height_colour(z: f32) -> Rgb {
     const STOPS: [(f32, [f32; 3]); 5] = [
         (-2.2, [40.0, 60.0, 200.0]),
         (-1.4, [30.0, 170.0, 230.0]),
@@ -123,7 +108,7 @@ fn pixel_i(opts: &BevOptions, x: f32, y: f32) -> (i32, i32) {
 
 /// The box's outline, a heading mark from its centre to the middle of its front edge, and its
 /// class (and score) above it.
-fn draw_box(area: &Area, opts: &BevOptions, bx: &BevBox, colour: Rgb) -> Drawn {
+fn draw_box(area: &Area, opts: &BevOptions, bx: &SceneBox, colour: Rgb) -> Drawn {
     let b = &bx.b;
     let corners = b.corners_bev().map(|[x, y]| pixel_i(opts, x, y));
     let style = rgb(colour).stroke_width(2);
@@ -211,7 +196,13 @@ fn draw_overlay(area: &Area, opts: &BevOptions, title: &str, has_preds: bool) ->
 }
 
 /// Draws a bird's-eye view.
-pub fn render_bev(points: &[Point], gt: &[BevBox], preds: &[BevBox], opts: &BevOptions, title: &str) -> Result<Canvas> {
+pub fn render_bev(
+    points: &[Point],
+    gt: &[SceneBox],
+    preds: &[SceneBox],
+    opts: &BevOptions,
+    title: &str,
+) -> Result<Canvas> {
     let (w, h) = opts.size();
     let mut canvas = Canvas::new(w, h, BACKGROUND);
     canvas.draw(|area| {
@@ -248,135 +239,20 @@ fn draw_center_marks(canvas: &mut Canvas, centers: &Centers, opts: &BevOptions) 
     })
 }
 
-/// What [`render_frame`] draws besides the points and labels.
-#[derive(Debug, Clone, Default)]
-pub struct RenderOptions {
-    /// A folder of KITTI result files (`{id}.txt`) to draw as predictions.
-    pub results: Option<PathBuf>,
-    /// Draw the simulator's 360° sidecar (`label_360`) as ground truth when the frame has one.
-    pub all_around: bool,
-    /// Augment the frame first (training augmentation, with `ROOT/gt_database.bin` if present).
-    pub augment: bool,
-    /// Sample and draw centers: sampler and count.
-    pub centers: Option<(Sampler, usize)>,
-    /// Seed for augmentation and sampling.
-    pub seed: u64,
-    /// Centers to draw instead of sampling (e.g. temporally seeded ones, from
-    /// `temporal::seeded_centers`): the first `num_seeded` in [`SEEDED`], the rest in [`CENTER`].
-    pub given_centers: Option<Centers>,
-}
-
-/// Loads frame `id` of `dataset` and draws it with the extras `extra` asks for. Ground truth
-/// comes from `label_2`, or with `all_around` from the 360° sidecar when the frame has one.
+/// Loads frame `id` of `dataset` and draws it with the extras `extra` asks for
+/// ([`frame_scene`]).
 pub fn render_frame(dataset: &KittiDataset, id: &str, extra: &RenderOptions, opts: &BevOptions) -> Result<Canvas> {
-    let frame = dataset.load(id)?;
-    let sidecar = dataset.path("label_360", id, "txt");
-    let labelled: Vec<(ObjectClass, Box3d)> = if extra.all_around && sidecar.is_file() {
-        read_sidecar(&sidecar)?.into_iter().map(|o| (o.class, o.b)).collect()
-    } else {
-        frame.labelled_boxes().into_iter().map(|(o, b)| (o.class, b)).collect()
-    };
-    let mut scene = Scene {
-        points: frame.points.clone(),
-        boxes: labelled.iter().map(|l| l.1).collect(),
-        classes: labelled.iter().map(|l| l.0).collect(),
-    };
-    let mut rng = ChaCha8Rng::seed_from_u64(extra.seed);
-    let mut title = format!("frame {id}");
-    if extra.augment {
-        title += &augment_scene(dataset, &mut scene, &mut rng)?;
-    }
-    let centers = draw_centers(&frame, &scene, extra, opts, &mut rng, &mut title);
-    let gt: Vec<BevBox> = scene
-        .boxes
-        .iter()
-        .zip(&scene.classes)
-        .map(|(b, c)| BevBox {
-            class: *c,
-            b: *b,
-            score: None,
-        })
-        .collect();
-    let preds = match &extra.results {
-        None => Vec::new(),
-        Some(dir) => read_predictions(&dir.join(format!("{id}.txt")), &frame)?,
-    };
-    let mut canvas = render_bev(&scene.points, &gt, &preds, opts, &title)?;
-    draw_center_marks(&mut canvas, &centers, opts)?;
+    let scene = frame_scene(dataset, id, extra, opts.reach())?;
+    let mut canvas = render_bev(&scene.points, &scene.gt, &scene.predictions, opts, &scene.title)?;
+    draw_center_marks(&mut canvas, &scene.centers, opts)?;
     Ok(canvas)
-}
-
-/// The training augmentation on `scene` (pasting from the root's database when it has one);
-/// what was drawn, for the title.
-fn augment_scene(dataset: &KittiDataset, scene: &mut Scene, rng: &mut ChaCha8Rng) -> Result<String> {
-    let db_path = dataset.root().join("gt_database.bin");
-    let db = if db_path.is_file() {
-        Some(GtDatabase::read(&db_path)?)
-    } else {
-        None
-    };
-    let draw = augment(scene, &AugmentConfig::default(), db.as_ref(), rng);
-    Ok(format!(
-        "  augmented: +{} pasted, rotation {:.2}, scale {:.3}{}",
-        draw.pasted.len(),
-        draw.rotation,
-        draw.scale,
-        if draw.flipped { ", flipped" } else { "" }
-    ))
-}
-
-/// The centers to draw: the given (seeded) ones, or `extra.centers` sampled from the scene;
-/// says which in the title.
-fn draw_centers(
-    frame: &Frame,
-    scene: &Scene,
-    extra: &RenderOptions,
-    opts: &BevOptions,
-    rng: &mut ChaCha8Rng,
-    title: &mut String,
-) -> Centers {
-    match (&extra.given_centers, extra.centers) {
-        (Some(given), _) => {
-            *title += &format!("  {} centers, {} seeded from t - 1", given.len(), given.num_seeded);
-            given.clone()
-        }
-        (None, Some((sampler, n))) => {
-            let pool_cfg = if extra.all_around {
-                CenterPoolConfig::all_around(opts.reach())
-            } else {
-                CenterPoolConfig::kitti()
-            };
-            let pool = center_pool(&scene.points, &pool_cfg, Some((&frame.calib, frame.image_size)));
-            *title += &format!("  {n} {} centers", sampler.label());
-            sample_centers(&scene.points, &pool, n, sampler, &[], CenterZ::Point, rng)
-        }
-        (None, None) => sample_centers(&[], &[], 0, Sampler::Random, &[], CenterZ::Point, rng),
-    }
-}
-
-/// A KITTI result file's boxes (DontCare aside) in the LiDAR frame of `frame`.
-fn read_predictions(path: &Path, frame: &Frame) -> Result<Vec<BevBox>> {
-    if !path.is_file() {
-        return Err(DataError::MissingFile {
-            frame: frame.id.clone(),
-            path: path.to_path_buf(),
-        }
-        .into());
-    }
-    Ok(read_labels(path)?
-        .iter()
-        .filter(|o| o.class != ObjectClass::DontCare)
-        .map(|o| BevBox {
-            class: o.class,
-            b: frame.calib.label_to_box(&o.cam),
-            score: o.score,
-        })
-        .collect())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use starnet_data::Box3d;
+    use starnet_data::kitti::ObjectClass;
 
     fn count(c: &Canvas, colour: Rgb) -> usize {
         (0..c.height() as i64)
@@ -390,12 +266,12 @@ mod tests {
         let opts = BevOptions::around(20.0, 10.0);
         // A point 10 m ahead and 5 m to the left: column (20 − 5)·10 = 150, row (20 − 10)·10 = 100.
         let pts = [[10.0, 5.0, -1.7, 0.2]];
-        let b = BevBox {
+        let b = SceneBox {
             class: ObjectClass::Car,
             b: Box3d::new(-10.0, -10.0, -1.0, 4.0, 2.0, 1.5, 0.0),
             score: None,
         };
-        let p = BevBox { score: Some(0.5), ..b };
+        let p = SceneBox { score: Some(0.5), ..b };
         let c = render_bev(&pts, &[b], &[], &opts, "T").unwrap();
         assert_eq!((c.width(), c.height()), (400, 400));
         assert_eq!(BevOptions::front(100.0, 2.0).size(), (220, 220));

@@ -29,6 +29,7 @@ struct Cli {
 enum Command {
     Inspect(commands::inspect::Inspect),
     Render(commands::render::Render),
+    View(commands::view::View),
     Coverage(commands::coverage::Coverage),
     Prepare(commands::prepare::Prepare),
     Train(commands::train::Train),
@@ -52,6 +53,7 @@ fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
         Command::Inspect(c) => c.run(),
         Command::Render(c) => c.run(),
+        Command::View(c) => c.run(),
         Command::Coverage(c) => c.run(),
         Command::Prepare(c) => c.run(),
         Command::Train(c) => c.run(),

@@ -15,3 +15,4 @@ pub mod render;
 pub mod stream_eval;
 pub mod synth;
 pub mod train;
+pub mod view;

@@ -24,7 +24,8 @@ pub struct Render {
     /// Output PNG.
     #[arg(long)]
     out: PathBuf,
-    /// A folder of KITTI result files (`{id}.txt`, 16 fields) to draw as predictions.
+    /// A result folder to draw as predictions: KITTI result files (`{id}.txt`, 16 fields) or
+    /// `starnet detect`'s `{id}.json`.
     #[arg(long)]
     results: Option<PathBuf>,
     /// How far the view reaches in metres: forward to `range` (and 0.55 x range to each
