@@ -10,7 +10,8 @@ A reference for porting: `forward` below is the whole network, built from model.
 layouts) and model.json; in evaluation mode it prints the largest difference to golden.safetensors.
 
 `--train` times what one step of `starnet train` computes at the export's widths: the batch copied from the host,
-the forward in training mode (BatchNorm over the real points' batch statistics), the loss (sigmoid focal, Huber on
+the forward in training mode (BatchNorm over the real points' batch statistics; the running statistics are not
+moved, a few element-wise operations that `starnet train` does), the loss (sigmoid focal, Huber on
 location, dimension and sin(heading), the two-bin direction cross-entropy; dense weights over every anchor, as the
 Rust loss), backward, the global-norm clip, Adam with L2 decay, the weight EMA and one read back to the host. The
 batch is random (a quarter of the point slots padded, 1 % of the anchors foreground): the step's cost does not
