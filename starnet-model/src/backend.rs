@@ -58,6 +58,9 @@ pub enum DeviceError {
     /// A device whose cargo feature this build was compiled without.
     #[error("device {0}: this build lacks the `{1}` cargo feature (cargo build --release --features {1})")]
     NotBuilt(DeviceChoice, &'static str),
+    /// A GPU that could not be opened (no GPU, no Vulkan loader or driver): wgpu's message.
+    #[error("device {0}: no GPU could be opened (it needs libvulkan.so.1 and the GPU's Vulkan driver): {1}")]
+    Unavailable(DeviceChoice, String),
 }
 
 impl std::str::FromStr for DeviceChoice {
@@ -115,17 +118,45 @@ fn device_kind(index: Option<usize>) -> burn::tensor::DeviceKind {
     )
 }
 
+/// `device` once its adapter has answered. wgpu looks for the adapter at the first operation and,
+/// finding none, panics on its own thread and then on the caller's: the probe runs that first
+/// operation here, keeps the first panic's message (the hook is this process's for the moment)
+/// and returns it as an error, so that a machine without the GPU gets a message, not a panic.
+#[cfg(any(feature = "vulkan", feature = "wgpu"))]
+fn probed(choice: DeviceChoice, device: Device) -> Result<Device, DeviceError> {
+    use std::sync::{Arc, Mutex};
+    let first = Arc::new(Mutex::new(None::<String>));
+    let seen = Arc::clone(&first);
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let mut first = seen.lock().unwrap_or_else(|e| e.into_inner());
+        first.get_or_insert_with(|| info.payload_as_str().unwrap_or("a panic").to_string());
+    }));
+    let probe = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        burn::tensor::Tensor::<1>::zeros([1], &device).into_data()
+    }));
+    std::panic::set_hook(previous);
+    match probe {
+        Ok(_) => Ok(device),
+        Err(_) => {
+            let message = first.lock().unwrap_or_else(|e| e.into_inner()).take();
+            Err(DeviceError::Unavailable(choice, message.unwrap_or_default()))
+        }
+    }
+}
+
 impl DeviceChoice {
-    /// The (non-autodiff) device; an error when this build lacks its backend.
+    /// The (non-autodiff) device; an error when this build lacks its backend, or when the GPU
+    /// cannot be opened.
     pub fn device(self) -> Result<Device, DeviceError> {
         match self {
             Self::Flex => Ok(default_device()),
             #[cfg(feature = "vulkan")]
-            Self::Vulkan(n) => Ok(Device::vulkan(device_kind(n))),
+            Self::Vulkan(n) => probed(self, Device::vulkan(device_kind(n))),
             #[cfg(not(feature = "vulkan"))]
             Self::Vulkan(_) => Err(DeviceError::NotBuilt(self, "vulkan")),
             #[cfg(feature = "wgpu")]
-            Self::Wgpu(n) => Ok(Device::wgpu(device_kind(n))),
+            Self::Wgpu(n) => probed(self, Device::wgpu(device_kind(n))),
             #[cfg(not(feature = "wgpu"))]
             Self::Wgpu(_) => Err(DeviceError::NotBuilt(self, "wgpu")),
         }
