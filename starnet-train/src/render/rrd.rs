@@ -219,12 +219,18 @@ mod tests {
             .into()
     }
 
+    /// The scenes of [`scenes`], written as `root/scene.rrd`.
+    fn recorded(root: &Path) -> (Vec<FrameScene>, std::path::PathBuf) {
+        let scenes = scenes(root);
+        let path = root.join("scene.rrd");
+        write_rrd(&scenes, &path).unwrap();
+        (scenes, path)
+    }
+
     #[test]
     fn a_recording_reads_back_with_every_point_box_and_center_of_each_frame() {
         let dir = tempfile::tempdir().unwrap();
-        let scenes = scenes(dir.path());
-        let path = dir.path().join("scene.rrd");
-        write_rrd(&scenes, &path).unwrap();
+        let (scenes, path) = recorded(dir.path());
         let got = read_rrd(&path).unwrap();
         let sum = |f: &dyn Fn(&FrameScene) -> usize| scenes.iter().map(f).sum::<usize>();
         let (points, gt, preds) = (
@@ -261,9 +267,7 @@ mod tests {
     #[test]
     fn a_truncated_recording_and_an_unwritable_one_are_errors_naming_the_file() {
         let dir = tempfile::tempdir().unwrap();
-        let scenes = scenes(dir.path());
-        let path = dir.path().join("scene.rrd");
-        write_rrd(&scenes, &path).unwrap();
+        let (scenes, path) = recorded(dir.path());
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
         let err = read_rrd(&path).unwrap_err().to_string();
