@@ -33,7 +33,6 @@ import math
 import os
 
 import numpy as np
-import onnxruntime as ort
 
 IMAGE_W, IMAGE_H = 1242, 375
 
@@ -56,8 +55,63 @@ def bound(v, default):
     return default if v is None else v  # JSON has no infinity: unbounded ranges are null
 
 
-def center_pool(points, pool, calib):
+def ground_rise(points, ground):
+    """The ground's rise above the reference plane under each (x, y), as a function of x and y
+    (starnet_data::geometry::GroundModel): each cell's `rank`-th lowest z, those more than `max_drop`
+    below their window's lower quartile dropped, the minimum over the window around each; the reference
+    (rise 0) where nothing lies around or outside the extent.
+    `ground` None: flat ground, rise 0 everywhere."""
+    if ground is None:
+        return lambda x, y: np.zeros(np.shape(x), np.float32)
+    cell, w, k, ext = ground["cell"], ground["window"], ground["rank"] + 1, ground["extent"]
+    side = max(1, int(np.ceil(np.float32(2 * ext) / np.float32(cell))))
+
+    def index(x, y):
+        i = np.floor((np.asarray(x, np.float32) + np.float32(ext)) / np.float32(cell))
+        j = np.floor((np.asarray(y, np.float32) + np.float32(ext)) / np.float32(cell))
+        inside = (i >= 0) & (i < side) & (j >= 0) & (j < side)
+        return np.where(inside, i * side + j, -1).astype(np.int64)
+
+    c = index(points[:, 0], points[:, 1])
+    z = points[:, 2][c >= 0]
+    c = c[c >= 0]
+    order = np.lexsort((z, c))
+    c, z = c[order], z[order]
+    first = np.r_[0, np.flatnonzero(np.diff(c)) + 1] if len(c) else np.zeros(0, np.int64)
+    count = np.diff(np.r_[first, len(c)])
+    floors = np.full(side * side, np.inf, np.float32)
+    floors[c[first]] = z[first + np.minimum(k - 1, count - 1)]
+    grid = floors.reshape(side, side)
+    # Pits: a floor more than max_drop below the lower quartile (the n // 4-th of the window's n
+    # floors) is no ground.
+    padded = np.pad(grid, w, constant_values=np.inf)
+    window = np.stack([padded[w + a:w + a + side, w + b:w + b + side]
+                       for a in range(-w, w + 1) for b in range(-w, w + 1)])
+    window = np.sort(window, axis=0)
+    valid = np.isfinite(window).sum(0)
+    quartile = np.take_along_axis(window, (valid // 4)[None], 0)[0]
+    grid = np.where(np.isfinite(grid) & (grid < quartile - np.float32(ground["max_drop"])), np.inf, grid)
+    for axis in (1, 0):
+        padded = np.moveaxis(grid, axis, -1)
+        out = np.full_like(padded, np.inf)
+        for d in range(-w, w + 1):
+            lo, hi = max(0, d), side + min(0, d)
+            out[..., lo - d:hi - d] = np.minimum(out[..., lo - d:hi - d], padded[..., lo:hi])
+        grid = np.moveaxis(out, -1, axis)
+    height = grid.reshape(-1)
+
+    def rise(x, y):
+        cells = index(x, y)
+        h = np.where(cells >= 0, height[np.maximum(cells, 0)], np.inf)
+        return np.where(np.isfinite(h), h - np.float32(ground["reference_z"]), 0.0).astype(np.float32)
+
+    return rise
+
+
+def center_pool(points, pool, calib, rise=None):
     x, y, z = points[:, 0], points[:, 1], points[:, 2]
+    if rise is not None:
+        z = z - rise(x, y)
     keep = np.ones(len(points), bool)
     for axis, key in ((x, "x_range"), (y, "y_range"), (z, "z_range")):
         lo, hi = pool[key]
@@ -242,6 +296,8 @@ def read_safetensors(path):
 def check_golden(export):
     """Replays the golden files through model.onnx; returns the worst |difference|."""
     spec = json.load(open(os.path.join(export, "model.json")))
+    import onnxruntime as ort  # here, so that the sampling functions import with numpy alone
+
     session = ort.InferenceSession(os.path.join(export, "model.onnx"))
     names = [o.name for o in session.get_outputs()]
     streaming = spec.get("streaming")
@@ -271,13 +327,15 @@ def check_golden(export):
     return worst
 
 
-def sample_and_gather(points, pool, n, spec, rng, readable=None):
+def sample_and_gather(points, pool, n, spec, rng, readable=None, rise=None):
     """FPS centers from the pool's points and their neighbourhoods in `readable` (default:
-    `points`)."""
+    `points`); `rise`, the ground's, lifts `center_z = "ground"` centers onto a road that is not flat."""
     chosen = pool[fps_bev(points[pool, :2].astype(np.float64), n, rng)]
     centers = points[chosen, :3].astype(np.float32)
     if spec["center_z"] == "zero":
         centers[:, 2] = 0.0
+    elif spec["center_z"] == "ground":
+        centers[:, 2] = rise(centers[:, 0], centers[:, 1])
     feats, mask = gather(points if readable is None else readable, centers, spec["num_points"],
                          spec["radius"], spec.get("gather_metric", "ball"), rng)
     return centers, feats, mask
@@ -315,7 +373,8 @@ def detect_streaming(session, spec, points, n, rng):
         readable = current
         if streaming["slicing"]["gather_previous"] and s > 0:
             readable = np.concatenate([points[which == s - 1], current])
-        pool = center_pool(current, pool_cfg, None)
+        rise = ground_rise(readable, spec.get("ground"))
+        pool = center_pool(current, pool_cfg, None, rise)
         if len(pool) == 0:
             # No candidates: one padding center, invalid, so the LSTM sees a zero input.
             centers = np.zeros((1, 3), np.float32)
@@ -323,7 +382,7 @@ def detect_streaming(session, spec, points, n, rng):
             mask = np.zeros((1, spec["num_points"]), np.float32)
             valid = np.zeros(1, np.float32)
         else:
-            centers, feats, mask = sample_and_gather(current, pool, per, spec, rng, readable)
+            centers, feats, mask = sample_and_gather(current, pool, per, spec, rng, readable, rise)
             valid = np.ones(len(centers), np.float32)
         outputs = session.run(None, {"points": feats, "mask": mask, "center_valid": valid, **state})
         state = {"state_h": outputs[-2], "state_c": outputs[-1]}
@@ -357,6 +416,8 @@ def main():
         ap.error("--input, --calib and --out are needed to detect")
 
     spec = json.load(open(os.path.join(args.export, "model.json")))
+    import onnxruntime as ort
+
     session = ort.InferenceSession(os.path.join(args.export, "model.onnx"))
     calib = read_calib(args.calib)
     rng = np.random.default_rng(args.seed)
@@ -368,8 +429,9 @@ def main():
         n = args.stream or spec["streaming"]["eval_slices"]
         boxes, scores, num_centers = detect_streaming(session, spec, points, n, rng)
     else:
-        pool = center_pool(points, spec["center_pool"], calib)
-        centers, feats, mask = sample_and_gather(points, pool, spec["num_centers"], spec, rng)
+        rise = ground_rise(points, spec.get("ground"))
+        pool = center_pool(points, spec["center_pool"], calib, rise)
+        centers, feats, mask = sample_and_gather(points, pool, spec["num_centers"], spec, rng, rise=rise)
         boxes, scores = boxes_and_scores(spec, centers, session.run(None, {"points": feats, "mask": mask}))
         num_centers = len(centers)
     lines = []

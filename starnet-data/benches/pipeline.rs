@@ -34,7 +34,7 @@ fn main() {
     println!("frame: {} points", pts.len());
 
     let all: Vec<usize> = (0..pts.len()).collect();
-    let kitti_pool = center_pool(pts, &CenterPoolConfig::kitti(), Some((&calib, cfg.image)));
+    let kitti_pool = center_pool(pts, &CenterPoolConfig::kitti(), Some((&calib, cfg.image)), None);
     for (name, pool) in [
         ("all points", &all),
         ("KITTI pool (camera view, z >= -1.35)", &kitti_pool),

@@ -568,6 +568,18 @@ fn apply_sets(table: &mut Table, sets: &[String]) -> Result<()> {
     Ok(())
 }
 
+/// `defaults` with the tables a config may add that are absent by default (an `Option` section
+/// is `None` unless the file names it), each holding its defaults, so that their keys are checked
+/// and their numbers widened like any other.
+fn with_optional_tables(defaults: &Table) -> Table {
+    let mut schema = defaults.clone();
+    let ground = Table::try_from(starnet_data::geometry::GroundConfig::default()).expect("the defaults serialise");
+    if let Some(Value::Table(pipeline)) = schema.get_mut("pipeline") {
+        pipeline.insert("ground".into(), Value::Table(ground));
+    }
+    schema
+}
+
 /// Every key of `user` must exist in `defaults` with a compatible type.
 fn check_keys(user: &Table, defaults: &Table, prefix: &str, file: &Path) -> Result<()> {
     for (k, v) in user {
@@ -636,8 +648,9 @@ pub fn parse_config(text: &str, origin: &Path, sets: &[String]) -> Result<Experi
 fn resolve(mut user: Table, sets: &[String], path: &Path) -> Result<ExperimentConfig> {
     apply_sets(&mut user, sets)?;
     let mut defaults = Table::try_from(ExperimentConfig::default()).expect("the defaults serialise");
-    check_keys(&user, &defaults, "", path)?;
-    widen_numbers(&mut user, &defaults);
+    let schema = with_optional_tables(&defaults);
+    check_keys(&user, &schema, "", path)?;
+    widen_numbers(&mut user, &schema);
     let pristine = defaults.clone();
     merge(&mut defaults, user.clone());
     let cfg: ExperimentConfig = Value::Table(defaults)
@@ -851,6 +864,35 @@ mod tests {
     }
 
     #[test]
+    fn the_ground_table_is_absent_by_default_and_checked_when_named() {
+        use starnet_data::geometry::GroundConfig;
+        let dir = tempfile::tempdir().unwrap();
+        let none = write(dir.path(), "a.toml", "");
+        assert_eq!(load_config(&none, &[]).unwrap().pipeline.ground, None);
+        let empty = write(
+            dir.path(),
+            "b.toml",
+            "[pipeline]\ncenter_z = \"ground\"\n[pipeline.ground]\n",
+        );
+        let c = load_config(&empty, &["pipeline.ground.window=3".into()]).unwrap();
+        assert_eq!(c.pipeline.center_z, starnet_data::sampling::CenterZ::Ground);
+        assert_eq!(
+            c.pipeline.ground,
+            Some(GroundConfig {
+                window: 3,
+                ..GroundConfig::default()
+            })
+        );
+        // An integer where a float is due is widened, as everywhere else; a typo is an unknown key.
+        let c = load_config(&empty, &["pipeline.ground.cell=1".into()]).unwrap();
+        assert_eq!(c.pipeline.ground.map(|g| g.cell), Some(1.0));
+        let e = load_config(&empty, &["pipeline.ground.cel=1.0".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pipeline.ground.cel") && e.contains("unknown key"), "{e}");
+    }
+
+    #[test]
     fn every_range_rule_rejects_a_bad_value_naming_its_key() {
         let dir = tempfile::tempdir().unwrap();
         let ok = write(dir.path(), "a.toml", "");
@@ -860,6 +902,11 @@ mod tests {
             ("pipeline.pool.x_range=[10.0, 0.0]", "pipeline.pool.x_range"),
             ("pipeline.pool.y_range=[1.0, -1.0]", "pipeline.pool.y_range"),
             ("pipeline.pool.z_range=[0.0, -1.0]", "pipeline.pool.z_range"),
+            ("pipeline.center_z=\"ground\"", "pipeline.center_z"),
+            ("pipeline.ground.cell=0.0", "pipeline.ground.cell"),
+            ("pipeline.ground.extent=-5.0", "pipeline.ground.extent"),
+            ("pipeline.ground.cell=0.001", "pipeline.ground.extent"),
+            ("pipeline.ground.reference_z=nan", "pipeline.ground.reference_z"),
             ("pipeline.gather.num_points=0", "pipeline.gather.num_points"),
             ("pipeline.gather.radius=-1.0", "pipeline.gather.radius"),
             ("augment.object_margin=-0.1", "augment.object_margin"),

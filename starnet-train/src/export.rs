@@ -25,6 +25,7 @@ use burn::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
+use starnet_data::geometry::GroundConfig;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::ObjectClass;
 use starnet_data::sampling::{AnchorGrid, CenterPoolConfig, CenterZ, GatherMetric, NUM_FEATURES, Sampler, SliceConfig};
@@ -99,6 +100,10 @@ pub struct ModelSpec {
     pub center_pool: CenterPoolConfig,
     /// The z given to centers.
     pub center_z: CenterZ,
+    /// The local ground, when the pool's z band and the centers' z are measured from it
+    /// (`starnet_data::geometry::GroundModel`: each 2 m cell's third-lowest return, eroded over
+    /// a 5 × 5 window; `null`: the sensor's z, flat ground).
+    pub ground: Option<GroundConfig>,
     /// Centers per frame C (evaluation default).
     pub num_centers: usize,
     /// Points per center P (evaluation default).
@@ -219,6 +224,7 @@ impl ModelSpec {
             sampler: cfg.pipeline.sampler,
             center_pool: cfg.pipeline.pool.clone(),
             center_z: cfg.pipeline.center_z,
+            ground: cfg.pipeline.ground,
             num_centers: cfg.eval.num_centers,
             num_points: cfg.eval.num_points,
             radius: cfg.pipeline.gather.radius,

@@ -55,6 +55,21 @@ impl RealismComparison {
             row("their mean reflectance at 35–50 m", |r| {
                 r.clusters.mean_reflectance_35_50
             }),
+            row("road rise 20 m ahead, per frame p10 (m)", |r| r.ground.rise_20m.p10),
+            row("road rise 20 m ahead, per frame p50 (m)", |r| r.ground.rise_20m.p50),
+            row("road rise 20 m ahead, per frame p90 (m)", |r| r.ground.rise_20m.p90),
+            row("road rise 40 m ahead, per frame p10 (m)", |r| r.ground.rise_40m.p10),
+            row("road rise 40 m ahead, per frame p50 (m)", |r| r.ground.rise_40m.p50),
+            row("road rise 40 m ahead, per frame p90 (m)", |r| r.ground.rise_40m.p90),
+            row("road in the flat center pool, per frame p10 (%)", |r| {
+                r.ground.pool_road_percent.p10
+            }),
+            row("road in the flat center pool, per frame p50 (%)", |r| {
+                r.ground.pool_road_percent.p50
+            }),
+            row("road in the flat center pool, per frame p90 (%)", |r| {
+                r.ground.pool_road_percent.p90
+            }),
         ]
     }
 

@@ -2,8 +2,9 @@
 //! decide whether a detector trained on one finds objects in the other (issue #33): the
 //! reflectance by range and by what was hit (ground, cars, the rest), the share of returns
 //! reading exactly 0, the points, reflectance, height and viewpoint of labelled cars by
-//! distance, how volumetric the background is, how many car-sized clusters it holds, and how
-//! rough the ground beside the road.
+//! distance, how volumetric the background is, how many car-sized clusters it holds, how
+//! rough the ground beside the road, and how the road rises ahead and into the center pool
+//! (per frame: p10 / p50 / p90).
 //!
 //! Everything is measured in the camera's field of view (where KITTI labels objects), in the
 //! LiDAR frame, on any KITTI-layout folder: the simulator's, real KITTI, or a user's own sensor
@@ -29,6 +30,7 @@ pub use surfaces::{
     sampled_shapes,
 };
 
+use crate::geometry::{GroundConfig, GroundModel};
 use crate::kitti::{Frame, KittiDataset, ObjectClass};
 use crate::summary::{mean, quantile};
 use crate::{Point, Result};
@@ -73,6 +75,46 @@ pub struct SurfaceStats {
     pub off_road_p90: f64,
 }
 
+/// A per-frame figure's spread over the frames.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Percentiles {
+    /// 10th percentile.
+    pub p10: f64,
+    /// Median.
+    pub p50: f64,
+    /// 90th percentile.
+    pub p90: f64,
+}
+
+impl Percentiles {
+    fn of(values: &[f64]) -> Self {
+        let q = |p: f64| quantile(values, p).unwrap_or(0.0);
+        Self {
+            p10: q(0.1),
+            p50: q(0.5),
+            p90: q(0.9),
+        }
+    }
+}
+
+/// How the road rises ahead of the sensor and into the authors' flat center pool (z ≥ −1.35):
+/// per frame, from the local ground ([`GroundModel`] at its defaults, reference z −1.73).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct GroundRiseStats {
+    /// The ground's rise above the reference 20 m ahead (x = 20, y = 0), metres.
+    pub rise_20m: Percentiles,
+    /// The same 40 m ahead.
+    pub rise_40m: Percentiles,
+    /// Share of the flat pool's returns in the camera view lying within [`POOL_ROAD_BAND_M`] of
+    /// the local ground: road that FPS may pick as a center, percent.
+    pub pool_road_percent: Percentiles,
+}
+
+/// Returns this close above the local ground count as road in [`GroundRiseStats`], metres.
+pub const POOL_ROAD_BAND_M: f32 = 0.3;
+/// The authors' KITTI pool floor, metres (z in the sensor frame).
+const FLAT_POOL_FLOOR_Z: f32 = -1.35;
+
 /// Car-sized clusters of background returns ([`clusters`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct ClusterStats {
@@ -103,6 +145,9 @@ pub struct RealismReport {
     pub surfaces: SurfaceStats,
     /// Car-sized background clusters.
     pub clusters: ClusterStats,
+    /// The road's rise, per frame.
+    #[serde(default)]
+    pub ground: GroundRiseStats,
 }
 
 /// Running sums over frames.
@@ -119,6 +164,9 @@ struct Sums {
     heights: Vec<f64>,
     off_road: Vec<f64>,
     car_sized: Vec<Cluster>,
+    rise_20: Vec<f64>,
+    rise_40: Vec<f64>,
+    pool_road: Vec<f64>,
 }
 
 impl Sums {
@@ -152,6 +200,7 @@ impl Sums {
         self.car_sized
             .extend(clusters(&rest).into_iter().filter(Cluster::car_sized));
         self.add_off_road(&ground);
+        self.add_rise(&frame.points, &cloud);
         for (o, b) in frame.labelled_boxes() {
             if o.class == ObjectClass::Car {
                 self.car_samples.extend(car_sample(&b, &cloud));
@@ -167,6 +216,21 @@ impl Sums {
         };
         let off = ground.cell_minima(|x, y| near(x) && y.abs() > OFF_ROAD_Y_M);
         self.off_road.extend(off.iter().map(|z| *z as f64 - level));
+    }
+
+    /// The road's rise ahead and its share of the flat pool (`view`: the camera view's returns).
+    fn add_rise(&mut self, points: &[Point], view: &[Point]) {
+        let model = GroundModel::fit(points, &GroundConfig::default());
+        self.rise_20.push(model.rise_at(20.0, 0.0) as f64);
+        self.rise_40.push(model.rise_at(40.0, 0.0) as f64);
+        let pool: Vec<&Point> = view.iter().filter(|p| p[2] >= FLAT_POOL_FLOOR_Z).collect();
+        if !pool.is_empty() {
+            let road = pool
+                .iter()
+                .filter(|p| p[2] - model.height_at(p[0], p[1]) < POOL_ROAD_BAND_M)
+                .count();
+            self.pool_road.push(100.0 * road as f64 / pool.len() as f64);
+        }
     }
 
     fn cluster_stats(&self, frames: usize) -> ClusterStats {
@@ -196,6 +260,11 @@ impl Sums {
             },
             cars: car_bins(&self.car_samples),
             clusters: self.cluster_stats(frames),
+            ground: GroundRiseStats {
+                rise_20m: Percentiles::of(&self.rise_20),
+                rise_40m: Percentiles::of(&self.rise_40),
+                pool_road_percent: Percentiles::of(&self.pool_road),
+            },
             surfaces: SurfaceStats {
                 sampled: self.shapes.len(),
                 volumetric_percent: percent(LocalShape::volumetric),

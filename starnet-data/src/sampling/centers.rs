@@ -8,6 +8,7 @@
 
 use super::fps::fps;
 use crate::Point;
+use crate::geometry::GroundModel;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
@@ -50,6 +51,10 @@ pub enum CenterZ {
     Zero,
     /// The sampled point's own z.
     Point,
+    /// z = 0 lifted by the local ground's rise under the center ([`level_centers`], with
+    /// `pipeline.ground`): the center sits as high above a road that is not flat as [`Self::Zero`]
+    /// sits above the flat reference ground, and the anchors with it.
+    Ground,
 }
 
 /// Sampled centers `[C, 3]`.
@@ -95,11 +100,8 @@ pub fn sample_centers(
         Sampler::Random => random_subset(pool.len(), want, rng),
         Sampler::Fps => fps(points, pool, want, &[], rng),
     };
-    let zval = |p: &Point| if z == CenterZ::Zero { 0.0 } else { p[2] };
-    let mut xyz: Vec<[f32; 3]> = seeds
-        .iter()
-        .map(|s| [s[0], s[1], if z == CenterZ::Zero { 0.0 } else { s[2] }])
-        .collect();
+    let zval = |p: &[f32]| if z == CenterZ::Point { p[2] } else { 0.0 };
+    let mut xyz: Vec<[f32; 3]> = seeds.iter().map(|s| [s[0], s[1], zval(s)]).collect();
     xyz.extend(picked.iter().map(|&k| {
         let p = &points[pool[k]];
         [p[0], p[1], zval(p)]
@@ -115,6 +117,17 @@ pub fn sample_centers(
         xyz,
         valid,
         num_seeded: seeds.len(),
+    }
+}
+
+/// Lifts [`CenterZ::Ground`] centers by the ground's rise under each, so that they sit as high
+/// above a road that is not flat as z = 0 sits above the reference ground (and the anchors,
+/// whose z is relative to the center, with them). Other centers keep their z.
+pub fn level_centers(centers: &mut Centers, z: CenterZ, ground: &GroundModel) {
+    if z == CenterZ::Ground {
+        for c in &mut centers.xyz {
+            c[2] = ground.rise_at(c[0], c[1]);
+        }
     }
 }
 
@@ -258,6 +271,28 @@ mod tests {
             &mut ChaCha8Rng::seed_from_u64(8),
         );
         assert!(z0.xyz.iter().all(|p| p[2] == 0.0));
+    }
+
+    #[test]
+    fn levelled_centers_sit_on_the_ground_rise() {
+        use crate::geometry::GroundConfig;
+        let road: Vec<Point> = (0..100)
+            .map(|i| [i as f32 * 0.4, 0.0, -1.73 + 0.02 * i as f32 * 0.4, 0.1])
+            .collect();
+        let ground = GroundModel::fit(&road, &GroundConfig::default());
+        let pool: Vec<usize> = (0..road.len()).collect();
+        for z in [CenterZ::Zero, CenterZ::Point, CenterZ::Ground] {
+            let mut c = sample_centers(&road, &pool, 8, Sampler::Fps, &[], z, &mut ChaCha8Rng::seed_from_u64(3));
+            let before = c.clone();
+            level_centers(&mut c, z, &ground);
+            for (a, b) in c.xyz.iter().zip(&before.xyz) {
+                let want = match z {
+                    CenterZ::Ground => ground.height_at(a[0], a[1]) + 1.73,
+                    CenterZ::Zero | CenterZ::Point => b[2],
+                };
+                assert!((a[2] - want).abs() < 1e-5, "{z:?}: {} vs {want}", a[2]);
+            }
+        }
     }
 
     #[test]

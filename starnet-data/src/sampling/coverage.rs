@@ -7,7 +7,7 @@
 
 use super::{AnchorGrid, CenterPoolConfig, CenterZ, Sampler, center_pool, sample_centers};
 use crate::Result;
-use crate::geometry::iou_bev;
+use crate::geometry::{GroundConfig, GroundModel, iou_bev};
 use crate::kitti::{KittiDataset, ObjectClass};
 use crate::par::parallel_for;
 use crate::seed::sub_seed;
@@ -24,6 +24,8 @@ pub struct CoverageConfig {
     pub samplers: Vec<Sampler>,
     /// The center pool.
     pub pool: CenterPoolConfig,
+    /// The local ground the pool's z band is measured from (`None`: the sensor's z).
+    pub ground: Option<GroundConfig>,
     /// Objects need at least this many points to count (5 in the paper).
     pub min_points: usize,
     /// IoU above which an anchor covers an object (0.5).
@@ -73,7 +75,13 @@ pub fn coverage(dataset: &KittiDataset, cfg: &CoverageConfig, seed: u64) -> Resu
             .filter(|(o, b)| cfg.classes.contains(&o.class) && b.count_points_inside(&frame.points) >= cfg.min_points)
             .map(|(o, b)| (b, AnchorGrid::for_class(o.class)))
             .collect();
-        let pool = center_pool(&frame.points, &cfg.pool, Some((&frame.calib, frame.image_size)));
+        let ground = cfg.ground.as_ref().map(|g| GroundModel::fit(&frame.points, g));
+        let pool = center_pool(
+            &frame.points,
+            &cfg.pool,
+            Some((&frame.calib, frame.image_size)),
+            ground.as_ref(),
+        );
         let mut local = vec![vec![0usize; cfg.samples.len()]; cfg.samplers.len()];
         for (s, &sampler) in cfg.samplers.iter().enumerate() {
             let mut rng = ChaCha8Rng::seed_from_u64(sub_seed(seed, s as u64, f as u64));

@@ -13,7 +13,7 @@ mod slices;
 mod target;
 
 pub use anchors::{AnchorGrid, AnchorPrior};
-pub use centers::{CenterZ, Centers, Sampler, sample_centers};
+pub use centers::{CenterZ, Centers, Sampler, level_centers, sample_centers};
 pub use coverage::{CoverageConfig, CoverageTable, coverage};
 // The metric and the grid are geometry's; re-exported here beside the gathering that uses them.
 pub use crate::geometry::{GatherMetric, SpatialGrid};

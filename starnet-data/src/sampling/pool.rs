@@ -1,8 +1,11 @@
 //! Which points may become centers: a range box, a z band (ground removal) and, on KITTI, the
 //! camera frustum. Only center selection uses the pool; every point stays available for
-//! gathering (lingvo's `SparseCenterSelector` runs on a filtered copy of the points).
+//! gathering (lingvo's `SparseCenterSelector` runs on a filtered copy of the points). With a
+//! [`GroundModel`] the z band is measured on the levelled cloud: a point's z less the ground's
+//! rise under it, so the band keeps its height above a road that is not flat.
 
 use crate::Point;
+use crate::geometry::GroundModel;
 use crate::kitti::{Calib, ImageSize};
 use crate::settings::{Checked, ordered_range};
 use serde::{Deserialize, Serialize};
@@ -51,12 +54,19 @@ impl CenterPoolConfig {
 }
 
 /// Indices of the points that may become centers. `camera` is required when the config asks
-/// for the frustum; without it the frustum test is skipped.
-pub fn center_pool(points: &[Point], cfg: &CenterPoolConfig, camera: Option<(&Calib, ImageSize)>) -> Vec<usize> {
+/// for the frustum; without it the frustum test is skipped. `ground`, when given, levels each
+/// point's z before the z band is tested.
+pub fn center_pool(
+    points: &[Point],
+    cfg: &CenterPoolConfig,
+    camera: Option<(&Calib, ImageSize)>,
+    ground: Option<&GroundModel>,
+) -> Vec<usize> {
+    let levelled_z = |p: &Point| ground.map_or(p[2], |g| p[2] - g.rise_at(p[0], p[1]));
     let in_range = |p: &Point| {
         (cfg.x_range[0]..=cfg.x_range[1]).contains(&p[0])
             && (cfg.y_range[0]..=cfg.y_range[1]).contains(&p[1])
-            && (cfg.z_range[0]..=cfg.z_range[1]).contains(&p[2])
+            && (cfg.z_range[0]..=cfg.z_range[1]).contains(&levelled_z(p))
     };
     let fov = match (cfg.camera_frustum, camera) {
         (true, Some((calib, size))) => Some(calib.fov_mask(points, size)),
@@ -95,11 +105,33 @@ mod tests {
             camera_frustum: false,
             ..CenterPoolConfig::kitti()
         };
-        assert_eq!(center_pool(&pts, &cfg, None), vec![1]);
+        assert_eq!(center_pool(&pts, &cfg, None, None), vec![1]);
         assert_eq!(
-            center_pool(&pts, &CenterPoolConfig::all_around(60.0), None),
+            center_pool(&pts, &CenterPoolConfig::all_around(60.0), None, None),
             vec![1, 2, 3]
         );
+    }
+
+    #[test]
+    fn the_z_band_follows_the_ground() {
+        use crate::geometry::GroundConfig;
+        // A road 0.4 m above the reference 30 m ahead, and a return 0.6 m above that road.
+        let mut pts: Vec<Point> = (0..40)
+            .flat_map(|i| (-4..4).map(move |j| [28.0 + 0.1 * i as f32, j as f32 * 0.5, -1.33, 0.1]))
+            .collect();
+        pts.push([30.0, 0.0, -0.73, 0.1]);
+        let cfg = CenterPoolConfig {
+            camera_frustum: false,
+            ..CenterPoolConfig::kitti()
+        };
+        let road = center_pool(&pts, &cfg, None, None);
+        assert_eq!(
+            road.len(),
+            pts.len(),
+            "unlevelled, the raised road is all above z = -1.35"
+        );
+        let ground = GroundModel::fit(&pts, &GroundConfig::default());
+        assert_eq!(center_pool(&pts, &cfg, None, Some(&ground)), vec![pts.len() - 1]);
     }
 
     #[test]
@@ -107,7 +139,7 @@ mod tests {
         let calib = Calib::kitti_000000();
         let pts = [[10.0, 0.0, -1.0, 0.1], [10.0, 15.0, -1.0, 0.1]];
         assert_eq!(
-            center_pool(&pts, &CenterPoolConfig::kitti(), Some((&calib, ImageSize::KITTI))),
+            center_pool(&pts, &CenterPoolConfig::kitti(), Some((&calib, ImageSize::KITTI)), None),
             vec![0]
         );
     }

@@ -3,11 +3,12 @@
 
 use super::{
     CenterPoolConfig, CenterTarget, CenterZ, Centers, GatherConfig, Neighbourhoods, Sampler, center_pool, gather,
-    sample_centers,
+    level_centers, sample_centers,
 };
 use crate::augment::{AugmentConfig, AugmentDraw, GtDatabase, Scene, augment, ring_dropout};
+use crate::geometry::{GroundConfig, GroundModel};
 use crate::kitti::{Frame, ObjectClass};
-use crate::settings::{Checked, at_least_one};
+use crate::settings::{Checked, InvalidSetting, at_least_one};
 use crate::{Box3d, Point};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -29,6 +30,11 @@ pub struct PipelineConfig {
     pub center_z: CenterZ,
     /// Neighbourhood size and radius.
     pub gather: GatherConfig,
+    /// The local ground, estimated per frame ([`GroundModel`]): when set, the pool's z band is
+    /// measured from it rather than from the sensor (a road that rises or tilts is levelled to
+    /// `reference_z`), and `center_z = "ground"` lifts the centers by it. `None`: the authors'
+    /// flat-ground setting.
+    pub ground: Option<GroundConfig>,
 }
 
 impl PipelineConfig {
@@ -36,7 +42,22 @@ impl PipelineConfig {
     pub fn validate(&self) -> Checked {
         at_least_one("num_centers", self.num_centers)?;
         self.pool.validate().map_err(|e| e.within("pool"))?;
+        match &self.ground {
+            Some(g) => g.validate().map_err(|e| e.within("ground"))?,
+            None if self.center_z == CenterZ::Ground => {
+                return Err(InvalidSetting::new(
+                    "center_z",
+                    "\"ground\" needs the ground estimated: add a [pipeline.ground] table",
+                ));
+            }
+            None => {}
+        }
         self.gather.validate().map_err(|e| e.within("gather"))
+    }
+
+    /// The ground of `points`, when the config levels the cloud.
+    pub fn fit_ground(&self, points: &[Point]) -> Option<GroundModel> {
+        self.ground.as_ref().map(|g| GroundModel::fit(points, g))
     }
 }
 
@@ -54,6 +75,7 @@ impl Default for PipelineConfig {
                 metric: super::GatherMetric::Ball,
                 reflectance: super::ReflectanceInput::Measured,
             },
+            ground: None,
         }
     }
 }
@@ -108,12 +130,15 @@ pub fn prepare_frame(
     // tested against the frame's own camera would drop a quarter of its labelled cars from the
     // pool. (OpenPCDet crops to the camera view before it augments; lingvo tests afterwards.)
     let recorded = draw.as_ref().map(|d| d.undo_global(&scene.points));
+    let recorded = recorded.as_deref().unwrap_or(&scene.points);
+    let recorded_ground = cfg.fit_ground(recorded);
     let pool = center_pool(
-        recorded.as_deref().unwrap_or(&scene.points),
+        recorded,
         &cfg.pool,
         Some((&frame.calib, frame.image_size)),
+        recorded_ground.as_ref(),
     );
-    let centers = sample_centers(
+    let mut centers = sample_centers(
         &scene.points,
         &pool,
         cfg.num_centers,
@@ -122,6 +147,14 @@ pub fn prepare_frame(
         cfg.center_z,
         rng,
     );
+    // The centers' z from the ground of the cloud the model sees (after the global z shift).
+    let seen_ground = match &draw {
+        Some(_) => cfg.fit_ground(&scene.points),
+        None => recorded_ground,
+    };
+    if let Some(ground) = seen_ground {
+        level_centers(&mut centers, cfg.center_z, &ground);
+    }
     let centers = cfg.target.apply(centers);
     let points = match augmentation {
         Some(a) if a.config.ring_dropout => ring_dropout(&scene.points, a.config.ring_dropout_width, rng).0,

@@ -8,7 +8,7 @@
 //! the azimuth interval `[start + s·w, start + (s+1)·w)` (w = 360°/n), measured in the rotation
 //! sense.
 
-use super::{Augmentation, Centers, PipelineConfig, PreparedFrame, center_pool, gather, sample_centers};
+use super::{Augmentation, Centers, PipelineConfig, PreparedFrame, center_pool, gather, level_centers, sample_centers};
 use crate::augment::{augment, ring_dropout};
 use crate::kitti::{Frame, ObjectClass};
 use crate::seed::sub_seed;
@@ -107,12 +107,17 @@ pub fn prepare_slice(
     num_centers: usize,
     rng: &mut impl Rng,
 ) -> PreparedFrame {
-    let pool = center_pool(current, &cfg.pool, None);
-    let centers: Centers = sample_centers(current, &pool, num_centers, cfg.sampler, &[], cfg.center_z, rng);
     let points: Vec<Point> = match previous {
         Some(prev) => prev.iter().chain(current).copied().collect(),
         None => current.to_vec(),
     };
+    // The ground from what has been delivered, never from slices still to come.
+    let ground = cfg.fit_ground(&points);
+    let pool = center_pool(current, &cfg.pool, None, ground.as_ref());
+    let mut centers: Centers = sample_centers(current, &pool, num_centers, cfg.sampler, &[], cfg.center_z, rng);
+    if let Some(ground) = &ground {
+        level_centers(&mut centers, cfg.center_z, ground);
+    }
     let neighbourhoods = gather(&points, &centers, &cfg.gather, rng);
     PreparedFrame {
         id: id.to_string(),

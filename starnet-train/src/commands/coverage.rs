@@ -24,6 +24,7 @@ pub fn paper_coverage(
         } else {
             CenterPoolConfig::kitti()
         },
+        ground: None,
         min_points: 5,
         iou: 0.5,
         classes: classes.to_vec(),

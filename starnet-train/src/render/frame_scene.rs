@@ -143,7 +143,7 @@ fn scene_centers(
             } else {
                 CenterPoolConfig::kitti()
             };
-            let pool = center_pool(&scene.points, &pool_cfg, Some((&frame.calib, frame.image_size)));
+            let pool = center_pool(&scene.points, &pool_cfg, Some((&frame.calib, frame.image_size)), None);
             *title += &format!("  {n} {} centers", sampler.label());
             sample_centers(&scene.points, &pool, n, sampler, &[], CenterZ::Point, rng)
         }

@@ -171,7 +171,13 @@ impl<'a> SeededStep<'a> {
         let seeds = if moved.is_empty() {
             Vec::new()
         } else {
-            let pool = center_pool(&frame.points, &pipeline.pool, Some((&frame.calib, frame.image_size)));
+            let ground = pipeline.fit_ground(&frame.points);
+            let pool = center_pool(
+                &frame.points,
+                &pipeline.pool,
+                Some((&frame.calib, frame.image_size)),
+                ground.as_ref(),
+            );
             snap_seeds(moved, &frame.points, &pool, pipeline.gather.radius)
         };
         let prepared = self.detector.prepare(frame, &seeds, seed);
@@ -347,7 +353,7 @@ mod tests {
         let (prepared, _) = step.run(&f, &moved, 4);
         let c = &prepared.centers;
         assert_eq!((c.len(), c.num_seeded), (24, 3));
-        let pool = center_pool(&f.points, &cfg.pipeline.pool, Some((&f.calib, f.image_size)));
+        let pool = center_pool(&f.points, &cfg.pipeline.pool, Some((&f.calib, f.image_size)), None);
         let snapped = snap_seeds(&moved, &f.points, &pool, cfg.pipeline.gather.radius);
         for (center, (s, m)) in c.xyz.iter().zip(snapped.iter().zip(&moved)) {
             assert_eq!([center[0], center[1]], [s[0], s[1]]);
