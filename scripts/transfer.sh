@@ -40,7 +40,7 @@ run_one() {
   local dir=$out/$name-s$seed
   [ -f "$dir/eval.json" ] || "$bin" train --config configs/quickstart.toml --run "$dir" --set "seed=$seed" "${args[@]}" \
     > "$out/$name-s$seed.log" 2>&1
-  [ -f "$dir/real/budget.json" ] || "$bin" eval --checkpoint "$dir/checkpoints/best" --data "$real" --split val \
+  compgen -G "$dir/real/c*_p*/eval.json" > /dev/null || "$bin" eval --checkpoint "$dir/checkpoints/best" --data "$real" --split val \
     --centers "$real_centers" --points "$real_points" --out "$dir/real" > "$out/$name-s$seed.real.log" 2>&1
 }
 
