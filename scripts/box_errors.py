@@ -34,7 +34,8 @@ ORACLES = {
 
 
 def read_objects(path):
-    """KITTI label or result lines as dicts (camera frame; score 1 for labels)."""
+    """KITTI label or result lines as dicts (camera frame; score 1 for labels; `box2d` is the image box
+    [left, top, right, bottom])."""
     out = []
     if not os.path.exists(path):
         return out
@@ -44,7 +45,7 @@ def read_objects(path):
             if len(v) < 15:
                 continue
             n = list(map(float, v[1:15]))
-            out.append(dict(cls=v[0], trunc=n[0], occ=n[1], top=n[4], bottom=n[6], h=n[7], w=n[8], l=n[9],
+            out.append(dict(cls=v[0], trunc=n[0], occ=n[1], box2d=n[3:7], top=n[4], bottom=n[6], h=n[7], w=n[8], l=n[9],
                             x=n[10], y=n[11], z=n[12], ry=n[13], score=float(v[15]) if len(v) > 15 else 1.0))
     return out
 

@@ -22,27 +22,12 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from onnx_detect import center_pool, fps_bev, ground_rise  # noqa: E402
+from onnx_detect import center_pool, fps_bev, ground_rise, read_calib  # noqa: E402
 
-GROUND = dict(cell=2.0, window=2, rank=2, extent=80.0, reference_z=-1.73)
+GROUND = dict(cell=2.0, window=2, rank=2, max_drop=1.0, extent=80.0, reference_z=-1.73)
 ROAD_BAND = 0.3
 MARGIN = 0.5
 BANDS = ((0.0, 20.0), (20.0, 40.0), (40.0, np.inf))
-
-
-def read_calib(path):
-    """(P2, velo -> rect) as 3 x 4 and 4 x 4 matrices."""
-    c = {}
-    for line in open(path):
-        if ":" in line:
-            k, v = line.split(":", 1)
-            if v.strip():
-                c[k] = np.array([float(x) for x in v.split()])
-    r0 = np.eye(4)
-    r0[:3, :3] = c["R0_rect"].reshape(3, 3)
-    tr = np.eye(4)
-    tr[:3, :] = (c["Tr_velo_to_cam"] if "Tr_velo_to_cam" in c else c["Tr_velo_cam"]).reshape(3, 4)
-    return c["P2"].reshape(3, 4), r0 @ tr
 
 
 def cars(label_path, velo_to_rect):

@@ -27,25 +27,14 @@ import argparse
 import json
 import math
 import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from box_errors import read_objects  # noqa: E402
 
 TRUE_RADIUS = 2.0
 FALSE_RADIUS = 2.5
 BANDS = ((0.0, 20.0), (20.0, 40.0), (40.0, math.inf))
-
-
-def read_objects(path):
-    """KITTI label or result lines as dicts (camera frame; score 1 for labels)."""
-    out = []
-    if not os.path.exists(path):
-        return out
-    with open(path) as f:
-        for line in f:
-            v = line.split()
-            if len(v) < 15:
-                continue
-            n = list(map(float, v[1:15]))
-            out.append(dict(cls=v[0], box2d=n[3:7], x=n[10], z=n[12], score=float(v[15]) if len(v) > 15 else 1.0))
-    return out
 
 
 def ground_distance(a, b):
