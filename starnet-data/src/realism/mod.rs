@@ -32,6 +32,7 @@ pub use surfaces::{
 
 use crate::geometry::{GroundConfig, GroundModel};
 use crate::kitti::{Frame, KittiDataset, ObjectClass};
+use crate::sampling::CenterPoolConfig;
 use crate::summary::{mean, quantile};
 use crate::{Point, Result};
 use serde::{Deserialize, Serialize};
@@ -112,8 +113,6 @@ pub struct GroundRiseStats {
 
 /// Returns this close above the local ground count as road in [`GroundRiseStats`], metres.
 pub const POOL_ROAD_BAND_M: f32 = 0.3;
-/// The authors' KITTI pool floor, metres (z in the sensor frame).
-const FLAT_POOL_FLOOR_Z: f32 = -1.35;
 
 /// Car-sized clusters of background returns ([`clusters`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -223,7 +222,8 @@ impl Sums {
         let model = GroundModel::fit(points, &GroundConfig::default());
         self.rise_20.push(model.rise_at(20.0, 0.0) as f64);
         self.rise_40.push(model.rise_at(40.0, 0.0) as f64);
-        let pool: Vec<&Point> = view.iter().filter(|p| p[2] >= FLAT_POOL_FLOOR_Z).collect();
+        let floor = CenterPoolConfig::kitti().z_range[0];
+        let pool: Vec<&Point> = view.iter().filter(|p| p[2] >= floor).collect();
         if !pool.is_empty() {
             let road = pool
                 .iter()
