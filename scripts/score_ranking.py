@@ -19,7 +19,9 @@ It prints, per results folder:
   * the score histograms of true and false boxes (bins of 0.05);
   * precision and recall of the labelled cars per distance band (0-20, 20-40, 40+ m) at that score.
 
-With --json FILE it also writes these figures as JSON. Standard library only. Usage:
+With --json FILE it also writes these figures as JSON; with --svg FILE a plot, one panel per distance band: the
+labelled cars found (recall) against the false boxes per frame as the score threshold falls, one line per results
+folder. Standard library only. Usage:
 
   scripts/score_ranking.py --labels ../shared/kitti-real-dev/training/label_2 runs/a/real/c256_p128/results ...
 """
@@ -93,10 +95,56 @@ def analyse(results, labels, keep):
         f = sum(1 for _, k in kept if k == "false")
         bands.append(dict(band=f"{lo:g}-{hi:g} m", cars=labelled, recall=found / labelled if labelled else None,
                           precision=t / (t + f) if t + f else None, false_boxes=f))
+    curves = [band_curve(boxes, cars, lo, hi, len(frames)) for lo, hi in BANDS]
     return dict(results=results, frames=len(frames), true_boxes=len(true), false_boxes=len(false),
-                keep=keep, threshold=threshold,
+                keep=keep, threshold=threshold, curves=curves,
                 false_per_frame=sum(1 for s in false if s >= threshold) / len(frames),
                 bins=bins, true_hist=hist(true), false_hist=hist(false), bands=bands)
+
+
+def band_curve(boxes, cars, lo, hi, frames):
+    """[(false boxes per frame, recall)] in one distance band as the threshold falls through every score."""
+    labelled = sum(1 for r, _ in cars if lo <= r < hi)
+    scores = sorted({s for s, k, r in boxes if lo <= r < hi and k in ("true", "false")}, reverse=True)
+    curve = [(0.0, 0.0)]
+    for t in scores:
+        found = sum(1 for r, s in cars if lo <= r < hi and s is not None and s >= t)
+        false = sum(1 for s, k, r in boxes if lo <= r < hi and k == "false" and s >= t)
+        curve.append((false / frames, found / labelled if labelled else 0.0))
+    return curve
+
+
+COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"]
+
+
+def write_svg(path, reports, x_max=0.5):
+    """One panel per distance band: recall against false boxes per frame, a line per folder."""
+    w, h, pad = 300, 260, 45
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w * len(BANDS)}" height="{h + 20 * len(reports) + 10}" '
+           'font-family="sans-serif" font-size="11"><rect width="100%" height="100%" fill="white"/>']
+    for k, (lo, hi) in enumerate(BANDS):
+        ox = k * w
+        px = lambda v: ox + pad + min(v, x_max) / x_max * (w - pad - 10)
+        py = lambda v: h - pad + 10 - v * (h - pad - 20)
+        out.append(f'<text x="{ox + w / 2}" y="14" text-anchor="middle">cars at {lo:g}-{hi:g} m</text>'.replace("-inf", "+"))
+        out.append(f'<rect x="{px(0)}" y="{py(1)}" width="{px(x_max) - px(0)}" height="{py(0) - py(1)}" fill="none" stroke="#999"/>')
+        for i in range(6):
+            v = i / 5
+            out.append(f'<text x="{px(0) - 4}" y="{py(v) + 4}" text-anchor="end">{v:.1f}</text>')
+            out.append(f'<text x="{px(v * x_max)}" y="{py(0) + 14}" text-anchor="middle">{v * x_max:.1f}</text>')
+        out.append(f'<text x="{ox + w / 2 + 15}" y="{h - 2}" text-anchor="middle">false boxes per frame</text>')
+        out.append(f'<text x="{ox + 12}" y="{py(0.5)}" transform="rotate(-90 {ox + 12} {py(0.5)})" text-anchor="middle">recall</text>')
+        for j, r in enumerate(reports):
+            if r.get("curves"):
+                pts = " ".join(f"{px(x):.1f},{py(y):.1f}" for x, y in r["curves"][k] if x <= x_max)
+                out.append(f'<polyline points="{pts}" fill="none" stroke="{COLOURS[j % len(COLOURS)]}" stroke-width="1.5"/>')
+    for j, r in enumerate(reports):
+        y = h + 20 * j + 15
+        out.append(f'<line x1="10" y1="{y - 4}" x2="30" y2="{y - 4}" stroke="{COLOURS[j % len(COLOURS)]}" stroke-width="2"/>')
+        out.append(f'<text x="36" y="{y}">{r["results"]}</text>')
+    out.append("</svg>")
+    with open(path, "w") as f:
+        f.write("\n".join(out) + "\n")
 
 
 def print_report(r):
@@ -122,6 +170,7 @@ def main():
     ap.add_argument("--labels", required=True, help="the label_2 folder of the same frames")
     ap.add_argument("--keep", type=float, default=0.8, help="share of true boxes the operating point keeps")
     ap.add_argument("--json", help="also write the figures here")
+    ap.add_argument("--svg", help="also plot recall against false boxes per frame, per distance band, here")
     args = ap.parse_args()
     reports = [analyse(r, args.labels, args.keep) for r in args.results]
     for r in reports:
@@ -135,6 +184,8 @@ def main():
     if args.json:
         with open(args.json, "w") as f:
             json.dump(reports, f, indent=1)
+    if args.svg:
+        write_svg(args.svg, reports)
 
 
 if __name__ == "__main__":

@@ -113,10 +113,15 @@ fn boxes_contain_the_points_that_hit_their_object() {
             if obj.occlusion == 3 || hits.len() < 5 {
                 continue;
             }
+            // Objects stand upright in the level frame; their boxes stand upright in the sensor's
+            // frame, tilted from it (as KITTI labels cars on a slope): a corner moves by up to
+            // the tilt times the box's half-diagonal.
+            let tilt = f.tilt.pitch.abs() + f.tilt.roll.abs();
+            let lean = 2.0 * tilt * 0.5 * obj.b.dx.hypot(obj.b.dy).hypot(obj.b.dz);
             let grown = starnet_data::Box3d {
-                dx: obj.b.dx + margin,
-                dy: obj.b.dy + margin,
-                dz: obj.b.dz + margin,
+                dx: obj.b.dx + margin + lean,
+                dy: obj.b.dy + margin + lean,
+                dz: obj.b.dz + margin + lean,
                 ..obj.b
             };
             assert_eq!(
@@ -141,10 +146,13 @@ fn written_labels_agree_with_the_camera() {
     for id in ds.ids() {
         let frame = ds.load(id).unwrap();
         for o in frame.objects.iter().filter(|o| o.class != ObjectClass::DontCare) {
-            // Label fields are rounded to 0.01 (m or rad): a 5 mm shift at depth z moves the
-            // projection by about f · 0.005 / z px, with f ≈ 707 px, and 1 cm of box corner
-            // from the heading's rounding twice that.
-            let tol = 0.5 + 15.0 / o.cam.z;
+            // Label fields are rounded to 0.01 (m or rad): the centre moves by up to 5 mm per
+            // axis and a corner by the heading's 0.005 rad times the half-diagonal, which moves
+            // the projection by f ≈ 707 px times that over the nearest corner's depth (a car
+            // right in front, truncated, has corners far nearer than its centre).
+            let half_diagonal = 0.5 * o.cam.l.hypot(o.cam.w);
+            let nearest = (o.cam.z - half_diagonal).max(0.5);
+            let tol = 0.5 + 707.0 * (0.0071 + 0.005 * half_diagonal) / nearest;
             let proj = frame
                 .calib
                 .image_bbox(&o.cam, frame.image_size)

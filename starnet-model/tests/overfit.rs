@@ -20,7 +20,7 @@ use starnet_model::nn::StarNetConfig;
 fn small_model_overfits_one_frame_and_recovers_its_cars() {
     use rand::SeedableRng;
     let calib = Calib::kitti_000000();
-    let frame = simulate_scene_frame(11, 0, &SynthConfig::default(), &calib).into_frame("000000", calib);
+    let frame = simulate_scene_frame(14, 0, &SynthConfig::default(), &calib).into_frame("000000", calib);
     let cars: Vec<Box3d> = frame
         .labelled_boxes()
         .into_iter()

@@ -46,7 +46,7 @@ impl SimObject {
         // prints the same again: lines round-trip exactly.
         let b = &self.b;
         format!(
-            "{} {} {:.4} {:.4} {:.4} {:.4} {:.4} {:.4} {:.4} {} {} {}",
+            "{} {} {:.4} {:.4} {:.4} {:.4} {:.4} {:.4} {} {} {} {}",
             self.class,
             self.track_id,
             b.x,
@@ -55,7 +55,7 @@ impl SimObject {
             b.dx,
             b.dy,
             b.dz,
-            b.heading,
+            heading_text(b.heading),
             self.num_points,
             self.occlusion,
             self.in_camera as u8
@@ -114,6 +114,19 @@ impl SimObject {
     }
 }
 
+/// A heading at the line's 4 decimals, so that parsing the text (which wraps to [−π, π)) and
+/// printing again gives the same text. ±π rounds to ±3.1416, outside [−π, π) on both sides:
+/// −3.1416 parses to the same angle as 3.1416 (they differ by 2π − 6.2832, under 1e-5 rad) and
+/// stands for both.
+fn heading_text(heading: f32) -> String {
+    let text = format!("{heading:.4}");
+    if text.trim_start_matches('-') == "3.1416" {
+        "-3.1416".to_string()
+    } else {
+        text
+    }
+}
+
 /// Reads a sidecar file.
 pub fn read_sidecar(path: &Path) -> Result<Vec<SimObject>> {
     parse_sidecar(&read_text(path)?, path)
@@ -146,5 +159,32 @@ mod tests {
         assert_eq!(o.to_line(), line);
         let err = SimObject::parse_line(&line.replace(" 1 0", " 5 0"), Path::new("s.txt"), 4).unwrap_err();
         assert!(err.to_string().starts_with("s.txt:4: occluded:"), "{err}");
+    }
+
+    #[test]
+    fn headings_near_pi_round_trip() {
+        use std::f32::consts::PI;
+        let base = "Car 1 10.0000 2.0000 -1.0000 4.0000 1.6000 1.5000";
+        for h in [
+            -PI,
+            -PI + 1e-5,
+            -PI + 4e-5,
+            PI - 1e-5,
+            PI - 4e-5,
+            PI - 9e-5,
+            9e-5 - PI,
+            0.0,
+        ] {
+            let first = SimObject::parse_line(&format!("{base} {h:.6} 10 0 1"), Path::new("s.txt"), 1).unwrap();
+            let line = first.to_line();
+            let again = SimObject::parse_line(&line, Path::new("s.txt"), 1).unwrap();
+            assert_eq!(again.to_line(), line, "heading {h}");
+            // The same angle, to the line's precision.
+            assert!(
+                crate::wrap_angle(again.b.heading - h).abs() < 1e-4,
+                "{h} -> {}",
+                again.b.heading
+            );
+        }
     }
 }

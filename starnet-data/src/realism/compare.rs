@@ -28,6 +28,34 @@ fn pair(a: f64, b: f64, digits: usize) -> String {
     format!("{a:.digits$} / {b:.digits$}")
 }
 
+/// Picks one per-frame spread from a report.
+type Spread = fn(&RealismReport) -> super::Percentiles;
+
+/// The per-frame spreads ([`super::FrameSpreads`]) as p10 / p50 / p90 rows.
+fn spread_rows(a: &RealismReport, b: &RealismReport) -> Vec<ComparisonRow> {
+    let stats: [(&str, Spread); 4] = [
+        ("car-sized background clusters", |r| r.spreads.car_sized_clusters),
+        ("background volumetric (%)", |r| r.spreads.volumetric_percent),
+        ("background planar vertical (%)", |r| r.spreads.vertical_percent),
+        ("off-road ground above the road, p90 (m)", |r| r.spreads.off_road_p90),
+    ];
+    let mut rows = Vec::new();
+    for (name, f) in stats {
+        for (q, pick) in [("p10", 0), ("p50", 1), ("p90", 2)] {
+            let value = |r: &RealismReport| {
+                let p = f(r);
+                [p.p10, p.p50, p.p90][pick]
+            };
+            rows.push(ComparisonRow {
+                statistic: format!("{name}, per frame {q}"),
+                a: value(a),
+                b: value(b),
+            });
+        }
+    }
+    rows
+}
+
 impl RealismComparison {
     /// The single figures: frames, points, background shape.
     pub fn rows(&self) -> Vec<ComparisonRow> {
@@ -37,7 +65,7 @@ impl RealismComparison {
             a: f(a),
             b: f(b),
         };
-        vec![
+        let mut rows = vec![
             row("frames", |r| r.frames as f64),
             row("returns per frame", |r| r.points_per_frame),
             row("returns per frame in the camera view", |r| r.view_points_per_frame),
@@ -70,7 +98,9 @@ impl RealismComparison {
             row("road in the flat center pool, per frame p90 (%)", |r| {
                 r.ground.pool_road_percent.p90
             }),
-        ]
+        ];
+        rows.extend(spread_rows(a, b));
+        rows
     }
 
     fn reflectance_table(

@@ -125,6 +125,20 @@ pub struct ClusterStats {
     pub mean_reflectance_35_50: f64,
 }
 
+/// Per-frame spreads of the background (each frame's figure, then p10 / p50 / p90 over the
+/// frames): a change that fits one street's averages but narrows the rest shows here.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct FrameSpreads {
+    /// Car-sized background clusters in the camera view.
+    pub car_sized_clusters: Percentiles,
+    /// Share of the sampled background neighbourhoods that are volumetric, percent.
+    pub volumetric_percent: Percentiles,
+    /// Share that are planar and vertical, percent.
+    pub vertical_percent: Percentiles,
+    /// The frame's 90th percentile of off-road ground above its road, metres.
+    pub off_road_p90: Percentiles,
+}
+
 /// The statistics of one folder.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct RealismReport {
@@ -147,6 +161,9 @@ pub struct RealismReport {
     /// The road's rise, per frame.
     #[serde(default)]
     pub ground: GroundRiseStats,
+    /// The background's statistics, per frame.
+    #[serde(default)]
+    pub spreads: FrameSpreads,
 }
 
 /// Running sums over frames.
@@ -166,6 +183,10 @@ struct Sums {
     rise_20: Vec<f64>,
     rise_40: Vec<f64>,
     pool_road: Vec<f64>,
+    frame_clusters: Vec<f64>,
+    frame_volumetric: Vec<f64>,
+    frame_vertical: Vec<f64>,
+    frame_off_road: Vec<f64>,
 }
 
 impl Sums {
@@ -193,11 +214,11 @@ impl Sums {
                 .map(|i| ground.height_above(&cloud[i]) as f64),
         );
         let near = |i: usize| (SURFACE_RANGE_M.0..SURFACE_RANGE_M.1).contains(&cloud[i][0].hypot(cloud[i][1]));
-        self.shapes
-            .extend(sampled_shapes(&cloud, SURFACE_STRIDE, |i| background(i) && near(i)));
+        self.add_shapes(sampled_shapes(&cloud, SURFACE_STRIDE, |i| background(i) && near(i)));
         let rest: Vec<Point> = (0..cloud.len()).filter(|&i| background(i)).map(|i| cloud[i]).collect();
-        self.car_sized
-            .extend(clusters(&rest).into_iter().filter(Cluster::car_sized));
+        let car_sized: Vec<Cluster> = clusters(&rest).into_iter().filter(Cluster::car_sized).collect();
+        self.frame_clusters.push(car_sized.len() as f64);
+        self.car_sized.extend(car_sized);
         self.add_off_road(&ground);
         self.add_rise(&frame.points, &cloud);
         for (o, b) in frame.labelled_boxes() {
@@ -213,8 +234,25 @@ impl Sums {
         let Some(level) = quantile(&road.iter().map(|z| *z as f64).collect::<Vec<_>>(), 0.5) else {
             return;
         };
-        let off = ground.cell_minima(|x, y| near(x) && y.abs() > OFF_ROAD_Y_M);
-        self.off_road.extend(off.iter().map(|z| *z as f64 - level));
+        let off: Vec<f64> = ground
+            .cell_minima(|x, y| near(x) && y.abs() > OFF_ROAD_Y_M)
+            .iter()
+            .map(|z| *z as f64 - level)
+            .collect();
+        self.frame_off_road.extend(quantile(&off, 0.9));
+        self.off_road.extend(off);
+    }
+
+    /// One frame's background neighbourhoods.
+    fn add_shapes(&mut self, shapes: Vec<LocalShape>) {
+        if !shapes.is_empty() {
+            let percent = |f: fn(&LocalShape) -> bool| {
+                100.0 * shapes.iter().filter(|s| f(s)).count() as f64 / shapes.len() as f64
+            };
+            self.frame_volumetric.push(percent(LocalShape::volumetric));
+            self.frame_vertical.push(percent(LocalShape::vertical));
+        }
+        self.shapes.extend(shapes);
     }
 
     /// The road's rise ahead and its share of the flat pool (`view`: the camera view's returns).
@@ -264,6 +302,12 @@ impl Sums {
                 rise_20m: Percentiles::of(&self.rise_20),
                 rise_40m: Percentiles::of(&self.rise_40),
                 pool_road_percent: Percentiles::of(&self.pool_road),
+            },
+            spreads: FrameSpreads {
+                car_sized_clusters: Percentiles::of(&self.frame_clusters),
+                volumetric_percent: Percentiles::of(&self.frame_volumetric),
+                vertical_percent: Percentiles::of(&self.frame_vertical),
+                off_road_p90: Percentiles::of(&self.frame_off_road),
             },
             surfaces: SurfaceStats {
                 sampled: self.shapes.len(),

@@ -3,7 +3,7 @@
 //! Occlusion is measured, not guessed: for each labelled object the scan counts the rays whose
 //! line of sight crosses it and the rays whose first return is on it.
 
-use super::{Finish, IntensityModel, LidarConfig, Ray, Shape, Surface};
+use super::{Finish, IntensityModel, LidarConfig, Ray, Shape, Surface, Tilt};
 use crate::Point;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
@@ -12,7 +12,7 @@ use std::f32::consts::TAU;
 /// A solid of the scene with its surface and, for labelled objects, its owner.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Primitive {
-    /// The solid, in the sensor frame.
+    /// The solid, in the level frame at the sensor (the sensor frame without its tilt).
     pub shape: Shape,
     /// How it returns the laser.
     pub surface: Surface,
@@ -20,7 +20,7 @@ pub struct Primitive {
     pub owner: Option<u32>,
 }
 
-/// The ground under the scene, in the sensor frame.
+/// The ground under the scene, in the level frame at the sensor.
 pub trait Terrain {
     /// Ground height at `(x, y)`.
     fn height(&self, x: f32, y: f32) -> f32;
@@ -68,18 +68,46 @@ fn bin_solids(prims: &[Primitive]) -> Vec<Vec<u32>> {
 /// First intersection with the terrain, by fixed-point iteration on the flat-ground solution
 /// (the terrain is gentle, so four steps converge to millimetres).
 fn terrain_hit(ray: &Ray, terrain: &impl Terrain, max_range: f32) -> Option<f32> {
-    if ray.d[2] > -1e-4 {
+    // Marches out along the ray (steps of 1 m, then 8 % of the range: the terrain is smooth
+    // on that scale) to the first step that ends below the ground, then refines by regula
+    // falsi. Fixed-point iteration alone misses grazing rays on a grade or an embankment.
+    let above = |t: f32| {
+        let p = ray.at(t);
+        p[2] - terrain.height(p[0], p[1])
+    };
+    let (mut t0, mut f0) = (0.0, above(0.0));
+    if f0 <= 0.0 {
         return None;
     }
-    let mut t = (terrain.height(ray.o[0], ray.o[1]) - ray.o[2]) / ray.d[2];
-    for _ in 0..4 {
-        if !(0.0..=2.0 * max_range).contains(&t) {
-            return None;
+    while t0 < max_range {
+        let t1 = (t0 + (0.08 * t0).max(1.0)).min(max_range);
+        let f1 = above(t1);
+        if f1 <= 0.0 {
+            return Some(refine(&above, (t0, f0), (t1, f1)));
         }
-        let p = ray.at(t);
-        t = (terrain.height(p[0], p[1]) - ray.o[2]) / ray.d[2];
+        (t0, f0) = (t1, f1);
     }
-    (t > 0.0 && t <= max_range).then_some(t)
+    None
+}
+
+/// A root of `f` between `a` (above, f > 0) and `b` (below, f ≤ 0) by the Illinois variant of
+/// regula falsi.
+fn refine(f: &impl Fn(f32) -> f32, (mut a, mut fa): (f32, f32), (mut b, mut fb): (f32, f32)) -> f32 {
+    for _ in 0..8 {
+        let t = b - fb * (b - a) / (fb - fa);
+        let ft = f(t);
+        if ft.abs() < 1e-4 {
+            return t;
+        }
+        if ft > 0.0 {
+            (a, fa) = (t, ft);
+            fb *= 0.5;
+        } else {
+            (b, fb) = (t, ft);
+            fa *= 0.5;
+        }
+    }
+    b - fb * (b - a) / (fb - fa)
 }
 
 /// Extra chance of losing a return on a dark or transparent surface (black paint, tyres, glass):
@@ -195,12 +223,14 @@ impl Scan {
     }
 }
 
-/// Scans the scene from the sensor at the origin.
+/// Scans the scene from the sensor at the origin, tilted by `tilt` from the level frame that
+/// `prims` and `terrain` are given in; the returns are in the sensor's own frame.
 pub fn scan(
     prims: &[Primitive],
     terrain: &impl Terrain,
     num_objects: usize,
     lidar: &LidarConfig,
+    tilt: Tilt,
     rng: &mut impl Rng,
 ) -> Scan {
     let bins = bin_solids(prims);
@@ -217,9 +247,10 @@ pub fn scan(
         for step in 0..lidar.azimuth_steps {
             let ray = Ray {
                 o: [0.0; 3],
-                d: lidar.direction(beam, step),
+                d: tilt.to_level(lidar.direction(beam, step)),
             };
-            let bin = ((lidar.azimuth(step) / TAU * BINS as f32) as usize).min(BINS - 1);
+            let azimuth = ray.d[1].atan2(ray.d[0]).rem_euclid(TAU);
+            let bin = ((azimuth / TAU * BINS as f32) as usize).min(BINS - 1);
             let mut first = nearest_solid(&ray, &bins[bin], prims, lidar, &mut sight, rng);
             if let Some(t) = terrain_hit(&ray, terrain, lidar.max_range)
                 && first.is_none_or(|h| t < h.t)
@@ -234,7 +265,7 @@ pub fn scan(
                 continue;
             }
             let t = hit.t + noise.sample(rng).clamp(-clip, clip);
-            let p = ray.at(t);
+            let p = tilt.to_sensor(ray.at(t));
             let cos = (ray.d[0] * hit.n[0] + ray.d[1] * hit.n[1] + ray.d[2] * hit.n[2]).abs();
             let reflectance = lidar.intensity.observe(hit.surface, cos, t, gain, rng);
             out.points.push([p[0], p[1], p[2], reflectance]);
@@ -270,7 +301,7 @@ mod tests {
     #[test]
     fn flat_ground_only() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-        let s = scan(&[], &Flat, 0, &quiet(), &mut rng);
+        let s = scan(&[], &Flat, 0, &quiet(), Tilt::default(), &mut rng);
         // A beam reaches flat ground within 120 m below −0.83° (asin(1.73 / 120)): the upper
         // block's beams 9..32 (2° − i/3 ≤ −1°) and all 32 of the lower block, 55 in all.
         assert_eq!(s.points.len(), 55 * 2048);
@@ -301,11 +332,11 @@ mod tests {
             owner: Some(0),
         };
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-        let s = scan(&[car], &Flat, 1, &quiet(), &mut rng);
+        let s = scan(&[car], &Flat, 1, &quiet(), Tilt::default(), &mut rng);
         assert!(s.rays_toward[0] > 100 && s.rays_hit[0] == s.rays_toward[0]);
         let on_car = s.owners.iter().filter(|o| **o == Some(0)).count();
         assert_eq!(on_car as u32, s.rays_hit[0]);
-        let hidden = scan(&[wall, car], &Flat, 1, &quiet(), &mut rng);
+        let hidden = scan(&[wall, car], &Flat, 1, &quiet(), Tilt::default(), &mut rng);
         assert_eq!(hidden.rays_toward[0], s.rays_toward[0]);
         assert_eq!(hidden.rays_hit[0], 0);
     }
@@ -318,7 +349,7 @@ mod tests {
             ..Default::default()
         };
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
-        let s = scan(&[], &Flat, 0, &noisy, &mut rng);
+        let s = scan(&[], &Flat, 0, &noisy, Tilt::default(), &mut rng);
         let frac = s.points.len() as f32 / (55.0 * 2048.0);
         assert!((frac - 0.9).abs() < 0.01, "{frac}");
         // A range error of at most 5 cm moves a ground point at most 5 cm vertically.
@@ -328,5 +359,67 @@ mod tests {
                 .iter()
                 .all(|p| (0.0..=0.99).contains(&p[3]) && (p[3] * 100.0 - (p[3] * 100.0).round()).abs() < 1e-3)
         );
+    }
+
+    #[test]
+    fn a_tilted_sensor_sees_the_level_ground_as_a_tilted_plane() {
+        let tilt = Tilt {
+            pitch: -0.01,
+            roll: 0.02,
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let s = scan(&[], &Flat, 0, &quiet(), tilt, &mut rng);
+        // In the sensor frame the ground is the plane n · p = −1.73 with n the level up axis.
+        let n = tilt.to_sensor([0.0, 0.0, 1.0]);
+        assert!(s.points.len() > 50 * 2048);
+        for p in &s.points {
+            let d = n[0] * p[0] + n[1] * p[1] + n[2] * p[2];
+            assert!((d + 1.73).abs() < 1e-3, "{p:?}: {d}");
+        }
+        // Nose down by 0.01 rad: the road 20–30 m ahead reads 0.2–0.3 m higher than level.
+        let ahead: Vec<f32> = s
+            .points
+            .iter()
+            .filter(|p| (20.0..30.0).contains(&p[0]) && p[1].abs() < 1.0)
+            .map(|p| p[2] + 1.73)
+            .collect();
+        assert!(
+            !ahead.is_empty() && ahead.iter().all(|z| (0.17..0.33).contains(z)),
+            "{ahead:?}"
+        );
+    }
+
+    /// A level road that meets a 40 % embankment at x = 10 m, rising to 3 m.
+    struct Bank;
+    impl Terrain for Bank {
+        fn height(&self, x: f32, _: f32) -> f32 {
+            -1.73 + (0.4 * (x - 10.0)).clamp(0.0, 3.0)
+        }
+        fn surface(&self, _: f32, _: f32) -> Surface {
+            Surface::matte(0.3)
+        }
+    }
+
+    #[test]
+    fn grazing_and_rising_rays_meet_a_steep_embankment_where_it_is() {
+        for elevation in [-0.1f32, -0.02, 0.0, 0.05] {
+            let ray = Ray {
+                o: [0.0; 3],
+                d: [elevation.cos(), 0.0, elevation.sin()],
+            };
+            let t = terrain_hit(&ray, &Bank, 120.0).expect("the bank stops every forward ray");
+            let p = ray.at(t);
+            assert!((p[2] - Bank.height(p[0], 0.0)).abs() < 1e-3, "{elevation}: {p:?}");
+            // The first crossing: every point before it is above the ground.
+            assert!((1..100).all(|i| {
+                let q = ray.at(t * i as f32 / 100.0);
+                q[2] > Bank.height(q[0], 0.0)
+            }));
+        }
+        let up = Ray {
+            o: [0.0; 3],
+            d: [0.0, 0.0, 1.0],
+        };
+        assert_eq!(terrain_hit(&up, &Bank, 120.0), None);
     }
 }

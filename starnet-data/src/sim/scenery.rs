@@ -1,11 +1,13 @@
 //! The unlabelled world along a street: sidewalk slabs (their edges are the kerbs), building
 //! façades with gaps, poles and signs, porous trees, bushes and hedges, fences and low walls
-//! along the property line, street furniture (bins, cabinets, bollards, benches), grass mounds
-//! and car-sized clutter (skips, sheds, stacked goods) off the road. Everything in the world
+//! along the property line, street furniture (bins, cabinets, bollards, benches), grass mounds,
+//! car-sized clutter (skips, sheds, stacked goods) and parked trailers off the road, façades with
+//! bays, porches and balconies, and the hard negatives of `negatives.rs`. Everything in the world
 //! frame. Real streets are cluttered (BENCHMARKS.md, "Realism": 19 % of real background
 //! neighbourhoods are volumetric against 5 % here before the clutter), and the clutter is
 //! what a detector must learn not to call a car.
 
+use super::negatives::hard_negatives;
 use super::street::Ground;
 use super::{Part, Shape, Surface};
 use crate::Box3d;
@@ -21,11 +23,17 @@ pub struct Scenery {
 }
 
 impl Scenery {
-    fn add(&mut self, shape: Shape, surface: Surface) {
+    pub(super) fn add(&mut self, shape: Shape, surface: Surface) {
         self.solids.push((shape, surface));
     }
 
-    fn add_obstacle(&mut self, shape: Shape, surface: Surface) {
+    /// Adds solids that together stand on `footprint` (kept clear of labelled objects).
+    pub(super) fn add_group(&mut self, parts: Vec<Part>, footprint: Box3d) {
+        self.obstacles.push(footprint);
+        self.solids.extend(parts);
+    }
+
+    pub(super) fn add_obstacle(&mut self, shape: Shape, surface: Surface) {
         let ([x, y], r) = shape.bounding_circle();
         let (z0, z1) = shape.z_range();
         let (dx, dy, heading) = match shape {
@@ -50,6 +58,7 @@ pub fn build_scenery(ground: &Ground, x0: f32, x1: f32, rng: &mut impl Rng) -> S
             bushes(&mut out, ground, side, edge + 1.0, (x0, x1), 0.3, rng);
         }
         poles(&mut out, ground, side, x0, x1, rng);
+        hard_negatives(&mut out, ground, side, (x0, x1), rng);
         if rng.random::<f32>() < 0.6 {
             trees(&mut out, ground, side, x0, x1, rng);
         }
@@ -60,26 +69,25 @@ pub fn build_scenery(ground: &Ground, x0: f32, x1: f32, rng: &mut impl Rng) -> S
     out
 }
 
-/// Raised slabs in 10 m pieces (short solids keep the azimuth bins small).
+/// Raised slabs in pieces of up to 10 m, shorter on a grade (short solids keep the azimuth
+/// bins small).
 fn sidewalks(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32) {
     let s = &ground.street;
     let y = s.centre_y + side * (s.half_width() + 0.5 * s.sidewalk);
-    let mut x = x0;
-    while x < x1 {
-        let mid = x + 5.0;
+    for [a, b] in ground.pieces(x0, x1) {
+        let mid = 0.5 * (a + b);
         if !s.in_crossing(mid) {
             let z = ground.height(mid, y);
             // The slab reaches down into the ground so undulation leaves no gap below it.
             out.add(
                 Shape::Cuboid {
                     c: [mid, y, z - 0.2 + 0.5 * (s.kerb + 0.2)],
-                    half: [5.0, 0.5 * s.sidewalk, 0.5 * (s.kerb + 0.2)],
+                    half: [0.5 * (b - a), 0.5 * s.sidewalk, 0.5 * (s.kerb + 0.2)],
                     heading: 0.0,
                 },
                 Surface::matte(0.36),
             );
         }
-        x += 10.0;
     }
 }
 
@@ -93,16 +101,29 @@ fn buildings(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, x0: f32, 
         let y = s.centre_y + side * (edge + setback + 0.5 * depth);
         if !s.in_crossing(x) && !s.in_crossing(x + len) {
             let h = rng.random_range(4.0..22.0);
-            let z = ground.height(mid, y) - 0.5;
+            // Based below the lowest ground under its front and back, so no gap opens under
+            // it on a grade or an embankment.
+            let (front, back) = (y - side * 0.5 * depth, y + side * 0.5 * depth);
+            let z = ground.floor(x, x + len, front).min(ground.floor(x, x + len, back)) - 0.5;
             let heading = rng.random_range(-0.04..0.04);
+            let wall = Surface::matte(rng.random_range(0.2..0.45));
             out.add_obstacle(
                 Shape::Cuboid {
                     c: [mid, y, z + 0.5 * h],
                     half: [0.5 * len, 0.5 * depth, 0.5 * h],
                     heading,
                 },
-                Surface::matte(rng.random_range(0.2..0.45)),
+                wall,
             );
+            let face = Facade {
+                x: [x, x + len],
+                y: front,
+                side,
+                base: z + 0.5,
+                height: h,
+                room: setback,
+            };
+            relief(out, &face, wall, rng);
             if setback > 1.5 && rng.random::<f32>() < 0.5 {
                 bushes(out, ground, side, edge + 0.6, (x, x + len), 0.6, rng);
             }
@@ -113,6 +134,38 @@ fn buildings(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, x0: f32, 
             } else {
                 0.3
             };
+    }
+}
+
+/// The street face of a building: its x extent, y, which side it faces from, its base and
+/// height, and the room in front of it before the sidewalk.
+struct Facade {
+    x: [f32; 2],
+    y: f32,
+    side: f32,
+    base: f32,
+    height: f32,
+    room: f32,
+}
+
+/// Bays, porches and balconies standing out of a façade: real façades are not planes (75 % of
+/// the simulator's vertical background was planar against 41 % on the real street).
+fn relief(out: &mut Scenery, face: &Facade, wall: Surface, rng: &mut impl Rng) {
+    let [x0, x1] = face.x;
+    for _ in 0..rng.random_range(0..=4) {
+        let width = rng.random_range(1.0..4.0f32).min(x1 - x0);
+        let depth = rng.random_range(0.3..1.2f32).min(face.room + 0.3);
+        let x = rng.random_range(x0..=x1 - width) + 0.5 * width;
+        let y = face.y - face.side * 0.5 * depth;
+        if rng.random::<f32>() < 0.5 || face.height < 5.0 {
+            // A bay or porch from the ground up.
+            let h = rng.random_range(2.5..face.height.clamp(2.6, 8.0));
+            out.add_obstacle(cuboid_at([x, y, face.base - 0.5], [width, depth, h + 0.5]), wall);
+        } else {
+            // A balcony: a slab and its parapet on an upper floor.
+            let z = rng.random_range(3.0..face.height - 1.0);
+            out.add(cuboid_at([x, y, z], [width, depth, rng.random_range(0.9..1.2)]), wall);
+        }
     }
 }
 
@@ -218,19 +271,24 @@ fn boundaries(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, (x0, x1)
     let mut x = x0;
     while x < x1 {
         let len = rng.random_range(5.0..25.0);
-        let (mid, depth) = (x + 0.5 * len, rng.random_range(0.5..1.2));
+        let depth = rng.random_range(0.5..1.2);
         let y = s.centre_y + side * (edge + 0.3 + 0.5 * depth);
-        let z = ground.height(mid, y);
         let u: f32 = rng.random();
         if !s.in_crossing(x) && !s.in_crossing(x + len) {
             if u < 0.3 {
                 let h = rng.random_range(0.7..1.8);
-                let hedge = cuboid_at([mid, y, z], [len, depth, h]);
-                out.add(hedge, Surface::foliage(rng.random_range(0.3..0.55)));
+                let surface = Surface::foliage(rng.random_range(0.3..0.55));
+                for [a, b] in ground.pieces(x, x + len) {
+                    let foot = [0.5 * (a + b), y, ground.floor(a, b, y)];
+                    out.add(cuboid_at(foot, [b - a, depth, h]), surface);
+                }
             } else if u < 0.45 {
                 let h = rng.random_range(0.4..1.2);
-                let wall = cuboid_at([mid, y, z], [len, 0.3, h]);
-                out.add_obstacle(wall, Surface::matte(rng.random_range(0.15..0.45)));
+                let surface = Surface::matte(rng.random_range(0.15..0.45));
+                for [a, b] in ground.pieces(x, x + len) {
+                    let foot = [0.5 * (a + b), y, ground.floor(a, b, y)];
+                    out.add_obstacle(cuboid_at(foot, [b - a, 0.3, h]), surface);
+                }
             } else if u < 0.65 {
                 fence(out, ground, [x, x + len], y, rng);
             }
@@ -240,12 +298,12 @@ fn boundaries(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, (x0, x1)
 }
 
 /// An upright box standing on `foot` (`[x, y, ground z]`) with extents `[along x, across, up]`.
-fn cuboid_at(foot: [f32; 3], size: [f32; 3]) -> Shape {
+pub(super) fn cuboid_at(foot: [f32; 3], size: [f32; 3]) -> Shape {
     turned_cuboid_at(foot, size, 0.0)
 }
 
 /// The same, turned by `heading`.
-fn turned_cuboid_at(foot: [f32; 3], size: [f32; 3], heading: f32) -> Shape {
+pub(super) fn turned_cuboid_at(foot: [f32; 3], size: [f32; 3], heading: f32) -> Shape {
     Shape::Cuboid {
         c: [foot[0], foot[1], foot[2] + 0.5 * size[2]],
         half: [0.5 * size[0], 0.5 * size[1], 0.5 * size[2]],
@@ -263,10 +321,11 @@ fn fence(out: &mut Scenery, ground: &Ground, [x0, x1]: [f32; 2], y: f32, rng: &m
         out.add(cuboid_at([x, y, ground.height(x, y)], [0.08, 0.08, h]), surface);
         x += step;
     }
-    let mid = 0.5 * (x0 + x1);
-    let z = ground.height(mid, y);
-    for rail in [0.35 * h, 0.9 * h] {
-        out.add(cuboid_at([mid, y, z + rail], [x1 - x0, 0.05, 0.08]), surface);
+    for [a, b] in ground.pieces(x0, x1) {
+        let z = ground.height(0.5 * (a + b), y);
+        for rail in [0.35 * h, 0.9 * h] {
+            out.add(cuboid_at([0.5 * (a + b), y, z + rail], [b - a, 0.05, 0.08]), surface);
+        }
     }
 }
 
@@ -300,7 +359,8 @@ fn off_road(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, (x0, x1): 
         let y = s.centre_y + side * (edge + rng.random_range(1.0..8.0));
         if !s.in_crossing(x) {
             let z = ground.height(x, y);
-            if rng.random::<f32>() < 0.5 {
+            let u: f32 = rng.random();
+            if u < 0.4 {
                 let radii = [
                     rng.random_range(2.0..5.0),
                     rng.random_range(1.5..4.0),
@@ -313,7 +373,7 @@ fn off_road(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, (x0, x1): 
                     heading: rng.random_range(-0.5..0.5),
                 };
                 out.add(mound, Surface::matte(rng.random_range(0.25..0.5)));
-            } else {
+            } else if u < 0.8 {
                 let size = [
                     rng.random_range(1.5..4.5),
                     rng.random_range(1.0..2.4),
@@ -321,10 +381,38 @@ fn off_road(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, (x0, x1): 
                 ];
                 let shape = turned_cuboid_at([x, y, z], size, rng.random_range(-0.6..0.6));
                 out.add_obstacle(shape, Surface::matte(rng.random_range(0.08..0.5)));
+            } else {
+                trailer(out, [x, y, z], rng.random_range(-0.3..0.3), rng);
             }
         }
         x += rng.random_range(8.0..40.0);
     }
+}
+
+/// A parked, unhitched trailer: a flat bed or a box on two wheels, a drawbar to the front.
+fn trailer(out: &mut Scenery, foot: [f32; 3], heading: f32, rng: &mut impl Rng) {
+    let [l, w] = [rng.random_range(2.0..4.0), rng.random_range(1.4..2.1)];
+    let boxed = rng.random::<f32>() < 0.5;
+    let h = if boxed { rng.random_range(1.0..1.8) } else { 0.35 };
+    let paint = Surface::matte(rng.random_range(0.1..0.5));
+    let dark = Surface::matte(0.1);
+    let local = [
+        (cuboid_at([0.0, 0.0, 0.5], [l, w, h]), paint),
+        (cuboid_at([0.0, 0.5 * w - 0.1, 0.0], [0.6, 0.18, 0.6]), dark),
+        (cuboid_at([0.0, -0.5 * w + 0.1, 0.0], [0.6, 0.18, 0.6]), dark),
+        (cuboid_at([0.5 * l + 0.6, 0.0, 0.35], [1.2, 0.08, 0.08]), dark),
+    ];
+    let parts: Vec<Part> = local.iter().map(|(s, r)| (s.moved(heading, foot), *r)).collect();
+    let footprint = Box3d::new(
+        foot[0],
+        foot[1],
+        foot[2] + 0.5 * (0.5 + h),
+        l + 1.2,
+        w,
+        0.5 + h,
+        heading,
+    );
+    out.add_group(parts, footprint);
 }
 
 #[cfg(test)]

@@ -72,15 +72,60 @@ impl Street {
     }
 }
 
-/// The ground: camber falling 2 % from the centre line to the kerbs, and gentle undulation.
+/// The ground: camber falling 2 % from the centre line to the kerbs, a vertical curve along the
+/// street (real streets climb and dip: on `kitti-real-dev` the road 40 m ahead lies 0.26 m above
+/// the sensor's reference at the median frame), embankments beside it, and gentle undulation.
+///
+/// The grade under the sensor is zero. A constant grade is invisible to a sensor that rides on
+/// it, and objects stand level in the world rather than pitched with the road: a grade would
+/// show them all leaning against it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ground {
     /// The street it carries.
     pub street: Street,
     /// `(kx, ky, amplitude, phase)` of each undulation wave.
     waves: Vec<[f32; 4]>,
+    /// Change of grade per metre along x (the vertical curve, 1/m); the grade is 0 at x = 0.
+    bend: f32,
+    /// Per side (right, left): the embankment's slope beyond the sidewalk (rise over run,
+    /// negative where the ground falls away) and the height at which it levels off.
+    banks: [Bank; 2],
     /// Added so that the ground under the sensor at the origin is at −mount height.
     offset: f32,
+}
+
+/// The ground beside a street, beyond its sidewalk: flat, or rising (falling) to a terrace.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Bank {
+    slope: f32,
+    height: f32,
+}
+
+impl Bank {
+    fn sample(rng: &mut impl Rng) -> Self {
+        if rng.random::<f32>() < 0.55 {
+            return Self {
+                slope: 0.0,
+                height: 0.0,
+            };
+        }
+        let sign = if rng.random::<f32>() < 0.7 { 1.0 } else { -1.0 };
+        Self {
+            slope: sign * rng.random_range(0.08..0.45),
+            height: rng.random_range(0.4..3.0),
+        }
+    }
+
+    /// Height gained `run` metres beyond the sidewalk.
+    fn rise(self, run: f32) -> f32 {
+        (self.slope * run.max(0.0)).clamp(-self.height, self.height)
+    }
+}
+
+/// Draws a zero-mean normal value with standard deviation `sd`, clamped to ±`limit`.
+fn clamped_normal(rng: &mut impl Rng, sd: f32, limit: f32) -> f32 {
+    let n: f32 = rng.sample(rand_distr::StandardNormal);
+    (n * sd).clamp(-limit, limit)
 }
 
 impl Ground {
@@ -102,6 +147,10 @@ impl Ground {
         let mut g = Self {
             street,
             waves,
+            // 1/4000 m⁻¹: the grade changes by 2.5 % over 100 m; the road 40 m ahead leaves
+            // the tangent at the sensor by 0.2 m.
+            bend: clamped_normal(rng, 1.0 / 4000.0, 1.0 / 1000.0),
+            banks: [Bank::sample(rng), Bank::sample(rng)],
             offset: 0.0,
         };
         g.offset = -mount_height - g.raw(0.0, 0.0);
@@ -109,18 +158,66 @@ impl Ground {
     }
 
     fn raw(&self, x: f32, y: f32) -> f32 {
-        let camber = -0.02 * self.street.lateral(y).abs().min(self.street.half_width());
-        camber
-            + self
-                .waves
-                .iter()
-                .map(|w| w[2] * (w[0] * x + w[1] * y + w[3]).sin())
-                .sum::<f32>()
+        let waves: f32 = self
+            .waves
+            .iter()
+            .map(|w| w[2] * (w[0] * x + w[1] * y + w[3]).sin())
+            .sum();
+        self.shape(x, y) + waves
+    }
+
+    /// The terrain without its undulation: camber, vertical curve and embankments.
+    fn shape(&self, x: f32, y: f32) -> f32 {
+        let s = &self.street;
+        let lat = s.lateral(y);
+        let camber = -0.02 * lat.abs().min(s.half_width());
+        camber + 0.5 * self.bend * x * x + self.bank(x, lat)
+    }
+
+    /// The embankment's rise at `x`, `lat` across the street; none in a crossing street, and
+    /// eased in over 10 m either side of it.
+    fn bank(&self, x: f32, lat: f32) -> f32 {
+        let s = &self.street;
+        let bank = self.banks[usize::from(lat > 0.0)];
+        let run = lat.abs() - s.half_width() - s.sidewalk;
+        let ease = s.crossing.map_or(1.0, |(cx, hw)| {
+            (((x - cx).abs() - hw - s.sidewalk) / 10.0).clamp(0.0, 1.0)
+        });
+        ease * bank.rise(run)
     }
 
     /// Ground height at world `(x, y)` (sidewalk slabs are solids on top of it).
     pub fn height(&self, x: f32, y: f32) -> f32 {
         self.raw(x, y) + self.offset
+    }
+
+    /// The lowest ground height along world x ∈ `[x0, x1]` at `y` (sampled every metre at
+    /// most): where a long solid's base goes so that no gap opens under it on a grade.
+    pub fn floor(&self, x0: f32, x1: f32, y: f32) -> f32 {
+        let n = ((x1 - x0).abs().ceil() as usize).max(1);
+        (0..=n)
+            .map(|i| self.height(x0 + (x1 - x0) * i as f32 / n as f32, y))
+            .fold(f32::INFINITY, f32::min)
+    }
+
+    /// The grade along world x at `x` (rise over run) of the vertical curve.
+    pub fn grade_at(&self, x: f32) -> f32 {
+        self.bend * x
+    }
+
+    /// Splits world x ∈ `[x0, x1]` into pieces short enough that a level solid on each, based at
+    /// its [`Ground::floor`], stands at most about 5 cm proud of the grade at its ends (2 m
+    /// at least, 10 m at most).
+    pub fn pieces(&self, x0: f32, x1: f32) -> Vec<[f32; 2]> {
+        let mut out = Vec::new();
+        let mut x = x0;
+        while x < x1 - 1e-3 {
+            let len = (0.1 / self.grade_at(x).abs().max(1e-3)).clamp(2.0, 10.0);
+            let end = (x + len).min(x1);
+            out.push([x, end]);
+            x = end;
+        }
+        out
     }
 
     /// Ground surface: asphalt, dashed lane markings, and soil or grass off the street.
@@ -175,20 +272,60 @@ mod tests {
     use rand::SeedableRng;
 
     #[test]
-    fn ground_is_mount_height_below_the_origin_and_gentle() {
+    fn ground_is_mount_height_below_the_origin_and_drivable() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         for _ in 0..20 {
             let street = Street::sample(&mut rng);
             assert!(street.lane_y(-1.0, 0).abs() < street.lane_width * 2.0);
             let g = Ground::sample(street, 1.73, &mut rng);
             assert!((g.height(0.0, 0.0) + 1.73).abs() < 1e-5);
-            // Slope under 3 % everywhere within 100 m.
+            // Along the lane, within 100 m: the vertical curve (under 1/1000 m⁻¹) and the
+            // undulation's three waves (each under 0.12 · 2π / 40 m).
             for i in 0..200 {
                 let x = -100.0 + i as f32;
-                let dz = (g.height(x + 0.5, 3.0) - g.height(x - 0.5, 3.0)).abs();
-                assert!(dz < 0.03, "{dz}");
+                let dz = g.height(x + 0.5, 3.0) - g.height(x - 0.5, 3.0);
+                assert!(g.grade_at(x).abs() < 100.0 / 1000.0);
+                assert!((dz - g.grade_at(x)).abs() < 0.057, "{dz} against {}", g.grade_at(x));
             }
         }
+    }
+
+    #[test]
+    fn banks_rise_beyond_the_sidewalk_and_level_off() {
+        let bank = Bank {
+            slope: 0.3,
+            height: 2.0,
+        };
+        assert_eq!(bank.rise(-1.0), 0.0);
+        assert!((bank.rise(2.0) - 0.6).abs() < 1e-6);
+        assert_eq!(bank.rise(50.0), 2.0);
+        let fall = Bank {
+            slope: -0.2,
+            height: 1.0,
+        };
+        assert_eq!(fall.rise(20.0), -1.0);
+    }
+
+    #[test]
+    fn floor_and_pieces_follow_the_grade() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut g = Ground::sample(Street::sample(&mut rng), 1.73, &mut rng);
+        // A crest: the grade falls by 1 % every 10 m.
+        (g.bend, g.waves) = (-0.001, Vec::new());
+        g.banks = [Bank {
+            slope: 0.0,
+            height: 0.0,
+        }; 2];
+        g.offset = -1.73 - g.raw(0.0, 0.0);
+        // The lowest point of [10, 20] is its far end; of [-20, 20] either end.
+        assert!((g.floor(10.0, 20.0, 0.0) - g.height(20.0, 0.0)).abs() < 1e-5);
+        assert!((g.floor(-20.0, 20.0, 0.0) - g.height(20.0, 0.0)).abs() < 1e-5);
+        assert!((g.grade_at(50.0) + 0.05).abs() < 1e-6);
+        // At 50 m the grade is 5 %: pieces of 2 m; near the crest, of 10 m.
+        let far = g.pieces(50.0, 59.0);
+        assert_eq!((far.first().unwrap()[0], far.last().unwrap()[1]), (50.0, 59.0));
+        assert!(far.iter().all(|[a, b]| (b - a) <= 2.0 + 1e-5), "{far:?}");
+        assert_eq!(g.pieces(-5.0, 5.0), vec![[-5.0, 5.0]]);
     }
 
     #[test]

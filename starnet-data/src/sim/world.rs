@@ -5,9 +5,10 @@ use super::actor::Actor;
 use super::placement::Placer;
 use super::scenery::{Scenery, build_scenery};
 use super::street::{Ground, GroundView, Street};
-use super::{LidarConfig, Primitive, Shape};
+use super::{LidarConfig, Primitive, Shape, Tilt};
 use crate::{Box3d, wrap_angle};
 use rand::Rng;
+use rand_distr::{Distribution, Normal};
 
 /// Moves a solid from a frame posed at `p = [x, y, z, yaw]` into the frame that holds it.
 fn place(shape: &Shape, p: [f32; 4]) -> Shape {
@@ -30,6 +31,25 @@ fn inverse(p: [f32; 4]) -> [f32; 4] {
     [-(c * p[0] + s * p[1]), s * p[0] - c * p[1], -p[2], -p[3]]
 }
 
+/// A level-frame box in the tilted sensor frame. Its centre and heading turn with the sensor;
+/// it stays upright there, as KITTI labels cars on a sloping road.
+fn tilted_box(b: Box3d, tilt: Tilt) -> Box3d {
+    let [x, y, z] = tilt.to_sensor([b.x, b.y, b.z]);
+    Box3d::new(x, y, z, b.dx, b.dy, b.dz, wrap_angle(tilt.heading_to_sensor(b.heading)))
+}
+
+/// The sensor's tilt on a car at rest, per scene: pitched nose down by 0.25° on average (so a
+/// level road rises ahead, as it does on `kitti-real-dev`), with the spread of other cars,
+/// loads and mountings.
+fn sample_mount(rng: &mut impl Rng) -> Tilt {
+    let pitch = Normal::new(-0.25f32, 0.3).expect("finite sigma").sample(rng);
+    let roll = Normal::new(0.0f32, 0.25).expect("finite sigma").sample(rng);
+    Tilt {
+        pitch: pitch.clamp(-1.2, 0.8).to_radians(),
+        roll: roll.clamp(-0.8, 0.8).to_radians(),
+    }
+}
+
 /// Everything that moves or stays in one scene.
 #[derive(Debug, Clone)]
 pub struct World {
@@ -44,6 +64,23 @@ pub struct World {
     /// Lateral weave of the ego's path: amplitude (m) and wavelength (m).
     weave: [f32; 2],
     mount_height: f32,
+    /// The sensor's tilt on the car at rest (mounting and load).
+    mount: Tilt,
+    /// The suspension's sway.
+    sway: Sway,
+}
+
+/// The suspension's slow sway of the sensor about its mounting.
+#[derive(Debug, Clone, Copy)]
+struct Sway {
+    /// Pitch amplitude, radians.
+    pitch: f32,
+    /// Roll amplitude, radians.
+    roll: f32,
+    /// Angular frequency, rad/s.
+    omega: f32,
+    /// Phase at t = 0, radians.
+    phase: f32,
 }
 
 /// What the sensor sees at one moment, in its own LiDAR frame.
@@ -55,6 +92,9 @@ pub struct Moment {
     pub boxes: Vec<Box3d>,
     /// Ego (sensor) pose in the world frame: `[x, y, z, yaw]`.
     pub pose: [f32; 4],
+    /// The sensor's tilt from the level frame of `pose`; `prims` are in that level frame,
+    /// `boxes` in the tilted sensor frame.
+    pub tilt: Tilt,
 }
 
 impl World {
@@ -78,6 +118,29 @@ impl World {
             ego_speed,
             weave,
             mount_height: lidar.mount_height,
+            mount: sample_mount(rng),
+            sway: Sway {
+                pitch: rng.random_range(0.0..0.2f32).to_radians(),
+                roll: rng.random_range(0.0..0.15f32).to_radians(),
+                omega: rng.random_range(1.5..4.0),
+                phase: rng.random_range(0.0..std::f32::consts::TAU),
+            },
+        }
+    }
+
+    /// The sensor's tilt at `t` from the level world: its mounting and the suspension's sway.
+    /// The car itself stands level, as every object of the simulator does (a car pitched with
+    /// the road under it would see the others leaning).
+    pub fn tilt(&self, t: f32) -> Tilt {
+        let Sway {
+            pitch,
+            roll,
+            omega,
+            phase,
+        } = self.sway;
+        Tilt {
+            pitch: self.mount.pitch + pitch * (omega * t + phase).sin(),
+            roll: self.mount.roll + roll * (0.7 * omega * t + 2.0 * phase).sin(),
         }
     }
 
@@ -104,6 +167,7 @@ impl World {
                 owner: None,
             })
             .collect();
+        let tilt = self.tilt(t);
         let mut boxes = Vec::with_capacity(self.actors.len());
         for (i, a) in self.actors.iter().enumerate() {
             let ap = self.to_frame(a.pose(t, &self.ground), inv);
@@ -112,10 +176,15 @@ impl World {
                 surface: *r,
                 owner: Some(i as u32),
             }));
-            boxes.push(place_box(a.local_box.0, a.local_box.1, 0.0, ap));
+            boxes.push(tilted_box(place_box(a.local_box.0, a.local_box.1, 0.0, ap), tilt));
         }
         (
-            Moment { prims, boxes, pose },
+            Moment {
+                prims,
+                boxes,
+                pose,
+                tilt,
+            },
             GroundView {
                 ground: &self.ground,
                 pose,
@@ -157,14 +226,19 @@ mod tests {
         assert!(p0.iter().all(|v| v.abs() < 1e-5), "{p0:?}");
         let p1 = w.ego_pose(1.0);
         assert!((p1[0] - w.ego_speed).abs() < 1e-4 && p1[3].abs() < 0.05);
-        // At t = 0 the sensor frame is the world frame: boxes equal the actors' world boxes.
+        // At t = 0 the sensor's level frame is the world frame: boxes, turned back by the
+        // sensor's tilt, stand where the actors stand.
         let (m, view) = w.moment(0.0);
         use super::super::Terrain;
         assert!((view.height(0.0, 0.0) + 1.73).abs() < 1e-4);
+        assert!(m.tilt.pitch.abs() < 0.1 && m.tilt.roll.abs() < 0.1, "{:?}", m.tilt);
         for (a, b) in w.actors.iter().zip(&m.boxes) {
+            let [x, y, z] = m.tilt.to_level([b.x, b.y, b.z]);
+            let pose = a.pose(0.0, &w.ground);
+            assert!((x - pose[0]).hypot(y - pose[1]) < 3.0, "{:?} moved", a.class);
             // On the ground; a vehicle's labelled box reaches up to 9 cm under it
             // (AnnotationMargin).
-            let below = a.pose(0.0, &w.ground)[2] - (b.z - 0.5 * b.dz);
+            let below = pose[2] - (z - 0.5 * b.dz);
             assert!(
                 (-0.02..0.02 + 0.09).contains(&below),
                 "{:?} stands on the ground",
