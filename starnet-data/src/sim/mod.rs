@@ -19,6 +19,7 @@ mod raycast;
 mod scenery;
 mod sensor;
 mod shapes;
+mod solids;
 mod stats;
 mod street;
 mod synth;
@@ -31,9 +32,9 @@ pub use annotation::AnnotationMargin;
 pub use intensity::{Finish, IntensityModel, Surface};
 pub use labels::{DONT_CARE_DISTANCE, INVISIBLE_BLOCKED, camera_label, label_frame, occlusion_level};
 pub use raycast::{Primitive, Scan, Terrain, scan};
-pub use scenery::Scenery;
 pub use sensor::{LidarConfig, hdl64_elevations};
 pub use shapes::{Ray, Shape};
+pub use solids::Scenery;
 pub use stats::{DatasetStats, StatRow, dataset_stats};
 pub use street::{Ground, GroundView, Street};
 pub use synth::{

@@ -6,7 +6,7 @@
 //! the simulator put 5.9 Pedestrian boxes per frame at score ≥ 0.3 (issue #47): the simulator had
 //! too few things it should not call a person.
 
-use super::scenery::{Scenery, cuboid_at, turned_cuboid_at};
+use super::solids::{Scenery, cuboid_at, turned_cuboid_at};
 use super::street::Ground;
 use super::{Part, Shape, Surface};
 use crate::Box3d;

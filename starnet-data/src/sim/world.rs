@@ -3,7 +3,8 @@
 
 use super::actor::Actor;
 use super::placement::Placer;
-use super::scenery::{Scenery, build_scenery};
+use super::scenery::build_scenery;
+use super::solids::Scenery;
 use super::street::{Ground, GroundView, Street};
 use super::{LidarConfig, Primitive, Shape, Tilt};
 use crate::{Box3d, wrap_angle};
