@@ -3,9 +3,8 @@
 # real training frames, (a) from scratch on real frames only and (b) fine-tuned from a simulator-trained model
 # (configs/finetune-real.toml), seeds 0-2. The first N frames of `fewshot_train` (ids in file order) train;
 # every run takes the same number of steps as 30 epochs of all 26 (390 at batch 2), the decay starting halfway.
-# Each size gets its own root under OUT (training/ linked to ROOT's, its own ImageSets/): the paste database
-# (`gt_database.bin`) is kept per root, not per split, so runs on different splits of one root would share the
-# first one's database, and with it the cars of frames they do not train on.
+# Each size gets its own writable root under OUT (training/ linked to ROOT's, its own ImageSets/ and paste
+# database), so ROOT may be read-only.
 #
 #   ROOT=../shared/kitti-real-dev SIM_RUNS=runs/v4 scripts/fewshot_curve.sh
 #   scripts/fewshot_curve.sh --table

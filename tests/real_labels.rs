@@ -12,7 +12,7 @@ use starnet_model::assign::AssignConfig;
 use starnet_model::batch::frame_targets;
 use starnet_model::nn::StarNetConfig;
 use starnet_train::config::load_config;
-use starnet_train::train::{TrainOptions, train};
+use starnet_train::train::{TrainOptions, prepare_database, train};
 use std::path::{Path, PathBuf};
 
 fn sample_root() -> PathBuf {
@@ -64,7 +64,7 @@ fn a_tiny_model_trains_and_evaluates_on_real_labels() {
     assert!(!losses.is_empty() && losses.iter().all(|l| l.is_finite()), "{losses:?}");
     // The paste database was cut from the real labels: their cars and other objects, never a
     // DontCare region.
-    let db = GtDatabase::read(&database_path(&root, LabelSource::Camera)).unwrap();
+    let db = GtDatabase::read(&database_path(&root, LabelSource::Camera, "train")).unwrap();
     let cars = db.entries.iter().filter(|e| e.class == ObjectClass::Car).count();
     assert!((1..=2).contains(&cars), "{cars} cars in the database");
     assert!(db.entries.iter().all(|e| e.class != ObjectClass::DontCare));
@@ -110,4 +110,30 @@ fn the_assignment_finds_each_labelled_car_of_a_real_frame() {
         found += matched.len();
     }
     assert_eq!(found, 2, "the sample's two cars");
+}
+
+#[test]
+fn each_split_pastes_only_its_own_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = real_root(dir.path());
+    std::fs::write(root.join("ImageSets/one.txt"), "000001\n").unwrap();
+    let all = prepare_database(&root, "train", LabelSource::Camera).unwrap();
+    let one = prepare_database(&root, "one", LabelSource::Camera).unwrap();
+    assert!(
+        all.entries.iter().any(|e| e.frame != "000001"),
+        "the train split spans three frames"
+    );
+    assert!(!one.entries.is_empty() && one.entries.iter().all(|e| e.frame == "000001"));
+    // Two files: building one split's database leaves the other's as it was.
+    let read = |split: &str| GtDatabase::read(&database_path(&root, LabelSource::Camera, split)).unwrap();
+    assert_eq!(read("train").entries.len(), all.entries.len());
+    assert_eq!(read("one").entries.len(), one.entries.len());
+    assert_eq!(
+        database_path(&root, LabelSource::Camera, "train"),
+        root.join("gt_database.bin")
+    );
+    assert_eq!(
+        database_path(&root, LabelSource::AllAround, "one"),
+        root.join("gt_database_360.one.bin")
+    );
 }

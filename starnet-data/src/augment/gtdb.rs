@@ -234,14 +234,21 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Where `starnet prepare` writes the database of a KITTI root from `labels`: `gt_database.bin` from
-/// the camera-view labels, `gt_database_360.bin` from the simulator's all-around ones (whose
-/// objects lie all around the sensor, so that an all-around model is pasted objects behind it
-/// as well as in front).
-pub fn database_path(root: &Path, labels: LabelSource) -> PathBuf {
-    root.join(match labels {
-        LabelSource::Camera => "gt_database.bin",
-        LabelSource::AllAround => "gt_database_360.bin",
+/// Where `starnet prepare` writes the database of a KITTI root's `split` from `labels`:
+/// `gt_database.bin` from the camera-view labels of `train`, `gt_database_360.bin` from the
+/// simulator's all-around ones (whose objects lie all around the sensor, so that an all-around
+/// model is pasted objects behind it as well as in front); another split's name goes before the
+/// extension (`gt_database.fewshot_train.bin`). One file per split: a run on a split must never
+/// paste the objects of frames it does not train on.
+pub fn database_path(root: &Path, labels: LabelSource, split: &str) -> PathBuf {
+    let stem = match labels {
+        LabelSource::Camera => "gt_database",
+        LabelSource::AllAround => "gt_database_360",
+    };
+    root.join(if split == "train" {
+        format!("{stem}.bin")
+    } else {
+        format!("{stem}.{split}.bin")
     })
 }
 

@@ -65,7 +65,8 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
             &|| task.inc(1),
         )?;
     }
-    if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&database_path(root, cfg.data.labels)) {
+    let db = database_path(root, cfg.data.labels, &cfg.data.train_split);
+    if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&db) {
         prepare_database(root, &cfg.data.train_split, cfg.data.labels)?;
     }
     Ok(())
@@ -85,7 +86,7 @@ pub fn prepare_database(root: &Path, split: &str, labels: LabelSource) -> Result
     let task = Task::begin("prepare", ds.ids().len() as u64);
     let db = GtDatabase::build(&ds, &|| task.inc(1))?;
     drop(task);
-    let path = database_path(root, labels);
+    let path = database_path(root, labels, split);
     db.write(&path)?;
     note(format!(
         "wrote {} ({} objects from {} frames of `{split}`)",
@@ -130,6 +131,7 @@ pub fn paste_database(cfg: &ExperimentConfig) -> Result<Option<Arc<GtDatabase>>>
     Ok(Some(Arc::new(GtDatabase::read(&database_path(
         &cfg.data.root,
         cfg.data.labels,
+        &cfg.data.train_split,
     ))?)))
 }
 

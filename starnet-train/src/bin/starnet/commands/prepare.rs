@@ -6,7 +6,8 @@ use std::path::PathBuf;
 
 /// Build the ground-truth database for paste augmentation from the train split:
 /// every labelled object with the points inside its box, written to ROOT/gt_database.bin
-/// (ROOT/gt_database_360.bin from the simulator's all-around labels).
+/// (ROOT/gt_database_360.bin from the simulator's all-around labels; another split than `train`
+/// writes ROOT/gt_database.SPLIT.bin, the file a training on that split reads).
 #[derive(Args)]
 pub struct Prepare {
     /// KITTI root.
