@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::TINY_CAR;
+use common::{TINY_CAR, sample_root};
 use starnet_data::augment::{GtDatabase, database_path};
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::{PipelineConfig, prepare_frame};
@@ -14,18 +14,6 @@ use starnet_model::nn::StarNetConfig;
 use starnet_train::config::load_config;
 use starnet_train::train::{TrainOptions, prepare_database, train};
 use std::path::{Path, PathBuf};
-
-fn sample_root() -> PathBuf {
-    let root = std::env::var_os("STARNET_KITTI_SAMPLE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/kitti-sample"));
-    assert!(
-        root.join("training/velodyne/000000.bin").is_file(),
-        "KITTI sample not found at {} (set STARNET_KITTI_SAMPLE)",
-        root.display()
-    );
-    root
-}
 
 /// A writable KITTI root over the sample's files: `training/` linked, train and val splits of
 /// all three frames (the paste database is written into the root).

@@ -41,7 +41,7 @@ pub fn sample_size(class: ObjectClass, rng: &mut impl Rng) -> [f32; 3] {
 }
 
 /// An axis-aligned cuboid part from its local bounds.
-fn cuboid(lo: [f32; 3], hi: [f32; 3], surface: Surface) -> Part {
+pub(super) fn cuboid(lo: [f32; 3], hi: [f32; 3], surface: Surface) -> Part {
     let c = std::array::from_fn(|i| 0.5 * (lo[i] + hi[i]));
     let half = std::array::from_fn(|i| 0.5 * (hi[i] - lo[i]));
     (Shape::Cuboid { c, half, heading: 0.0 }, surface)

@@ -41,5 +41,5 @@ pub use synth::{
     SIMULATOR_VERSION, SynthConfig, SynthFrame, generated_version, pose_line, sensor_pose, simulate_frame,
     simulate_scene_frame, synth_frames, synth_sequences, write_frame,
 };
-pub use tilt::Tilt;
+pub use tilt::{Tilt, TiltRotation};
 pub use world::{Moment, World};

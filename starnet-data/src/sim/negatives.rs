@@ -6,6 +6,7 @@
 //! the simulator put 5.9 Pedestrian boxes per frame at score ≥ 0.3 (issue #47): the simulator had
 //! too few things it should not call a person.
 
+use super::actors::cuboid;
 use super::solids::{Scenery, cuboid_at, turned_cuboid_at};
 use super::street::Ground;
 use super::{Part, Shape, Surface};
@@ -42,16 +43,12 @@ fn on_sidewalk(ground: &Ground, side: f32, x: f32, from_kerb: f32) -> [f32; 3] {
 fn bicycle(paint: Surface) -> Vec<Part> {
     let tyre = Surface::matte(0.1);
     let (hl, r) = (0.85, 0.34);
-    let part = |lo: [f32; 3], hi: [f32; 3], surface| {
-        let foot = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), lo[2]];
-        (cuboid_at(foot, [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]]), surface)
-    };
     vec![
-        part([-hl, -0.025, 0.0], [-hl + 2.0 * r, 0.025, 2.0 * r], tyre),
-        part([hl - 2.0 * r, -0.025, 0.0], [hl, 0.025, 2.0 * r], tyre),
-        part([-hl + r, -0.03, r + 0.1], [hl - r, 0.03, r + 0.25], paint),
-        part([hl - r - 0.1, -0.3, 0.95], [hl - r, 0.3, 1.0], paint),
-        part([-0.3, -0.08, 0.85], [-0.05, 0.08, 0.92], Surface::matte(0.1)),
+        cuboid([-hl, -0.025, 0.0], [-hl + 2.0 * r, 0.025, 2.0 * r], tyre),
+        cuboid([hl - 2.0 * r, -0.025, 0.0], [hl, 0.025, 2.0 * r], tyre),
+        cuboid([-hl + r, -0.03, r + 0.1], [hl - r, 0.03, r + 0.25], paint),
+        cuboid([hl - r - 0.1, -0.3, 0.95], [hl - r, 0.3, 1.0], paint),
+        cuboid([-0.3, -0.08, 0.85], [-0.05, 0.08, 0.92], Surface::matte(0.1)),
     ]
 }
 

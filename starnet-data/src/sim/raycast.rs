@@ -243,6 +243,7 @@ pub fn scan(
         ..Default::default()
     };
     let mut sight = Sightings::default();
+    let tilt = tilt.rotation();
     for (beam, &gain) in gains.iter().enumerate() {
         for step in 0..lidar.azimuth_steps {
             let ray = Ray {

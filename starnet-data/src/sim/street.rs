@@ -158,20 +158,15 @@ impl Ground {
     }
 
     fn raw(&self, x: f32, y: f32) -> f32 {
+        let s = &self.street;
+        let lat = s.lateral(y);
+        let camber = -0.02 * lat.abs().min(s.half_width());
         let waves: f32 = self
             .waves
             .iter()
             .map(|w| w[2] * (w[0] * x + w[1] * y + w[3]).sin())
             .sum();
-        self.shape(x, y) + waves
-    }
-
-    /// The terrain without its undulation: camber, vertical curve and embankments.
-    fn shape(&self, x: f32, y: f32) -> f32 {
-        let s = &self.street;
-        let lat = s.lateral(y);
-        let camber = -0.02 * lat.abs().min(s.half_width());
-        camber + 0.5 * self.bend * x * x + self.bank(x, lat)
+        camber + 0.5 * self.bend * x * x + self.bank(x, lat) + waves
     }
 
     /// The embankment's rise at `x`, `lat` across the street; none in a crossing street, and

@@ -30,16 +30,19 @@ impl Tilt {
         [[cp, -sp * sr, -sp * cr], [0.0, cr, -sr], [sp, cp * sr, cp * cr]]
     }
 
+    /// The rotation, built once for many vectors (a scan turns every ray and return).
+    pub fn rotation(self) -> TiltRotation {
+        TiltRotation(self.matrix())
+    }
+
     /// A sensor-frame vector in the level frame.
     pub fn to_level(self, v: [f32; 3]) -> [f32; 3] {
-        let m = self.matrix();
-        m.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2])
+        self.rotation().to_level(v)
     }
 
     /// A level-frame vector in the sensor frame (the inverse of [`Tilt::to_level`]).
     pub fn to_sensor(self, v: [f32; 3]) -> [f32; 3] {
-        let m = self.matrix();
-        [0, 1, 2].map(|j| m[0][j] * v[0] + m[1][j] * v[1] + m[2][j] * v[2])
+        self.rotation().to_sensor(v)
     }
 
     /// A level-frame heading (about z) as the sensor frame sees it: the heading of the
@@ -60,6 +63,23 @@ impl Tilt {
         let d = self.to_level([c, s, 0.0]);
         let k = d[2] / up[2];
         (d[1] - k * up[1]).atan2(d[0] - k * up[0])
+    }
+}
+
+/// A [`Tilt`]'s rotation matrix ([`Tilt::matrix`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TiltRotation([[f32; 3]; 3]);
+
+impl TiltRotation {
+    /// A sensor-frame vector in the level frame.
+    pub fn to_level(&self, v: [f32; 3]) -> [f32; 3] {
+        self.0.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2])
+    }
+
+    /// A level-frame vector in the sensor frame (the inverse of [`TiltRotation::to_level`]).
+    pub fn to_sensor(&self, v: [f32; 3]) -> [f32; 3] {
+        let m = &self.0;
+        [0, 1, 2].map(|j| m[0][j] * v[0] + m[1][j] * v[1] + m[2][j] * v[2])
     }
 }
 
