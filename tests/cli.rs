@@ -157,7 +157,7 @@ fn synth_writes_a_kitti_root_prints_stats_and_keeps_existing_data() {
     // A second run into the same root must not mix frames of two runs.
     let o = starnet(&["synth", "--out", r, "--frames", "2"]);
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("already holds generated data"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("is not empty"));
     // The rendered 360° view draws the sidecar's objects too.
     let png = dir.path().join("sim.png");
     stdout(&starnet(&[
@@ -173,6 +173,71 @@ fn synth_writes_a_kitti_root_prints_stats_and_keeps_existing_data() {
         "40",
     ]));
     assert_eq!(png_pixels(&png).0, 800);
+}
+
+/// The files under `root`, by relative path.
+fn tree(root: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut out = std::collections::BTreeMap::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.insert(
+                    p.strip_prefix(root).unwrap().display().to_string(),
+                    std::fs::read(&p).unwrap(),
+                );
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn a_killed_synth_leaves_no_root_and_the_same_command_finishes_it_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = |root: &str| ["synth", "--out", root, "--frames", "16", "--seed", "8"].map(String::from);
+    let whole = dir.path().join("whole");
+    stdout(&starnet(&args(whole.to_str().unwrap()).each_ref().map(String::as_str)));
+    let cut = dir.path().join("cut");
+    let cut_args = args(cut.to_str().unwrap());
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_starnet"))
+        .args(&cut_args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Killed outright once some frames are written, none of its code runs again.
+    let sidecars = dir.path().join(".cut.partial/training/label_360");
+    let start = std::time::Instant::now();
+    while std::fs::read_dir(&sidecars).map_or(0, |d| d.count()) < 3 {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "synth ended before it could be killed"
+        );
+        assert!(start.elapsed().as_secs() < 120, "no frames within 2 minutes");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(
+        !cut.exists(),
+        "a killed generation left a root a later run would take for complete"
+    );
+    let out = stdout(&starnet(&cut_args.each_ref().map(String::as_str)));
+    assert!(out.contains("continuing the interrupted writing"), "{out}");
+    assert!(
+        tree(&cut) == tree(&whole),
+        "the continued set differs from the uninterrupted one"
+    );
+    let mut left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["cut", "whole"], "the partial folder or the lock stayed");
 }
 
 #[test]

@@ -1,6 +1,6 @@
 //! Your own data (issue #37): the shipped model loads on a fresh clone and reproduces its golden
 //! outputs, and `starnet detect` gives the same detections on one real KITTI sweep whichever
-//! point-cloud format holds it.
+//! point-cloud format holds it, and whatever wild point a corrupt file adds to it.
 
 mod common;
 
@@ -94,4 +94,37 @@ fn detect_gives_the_same_boxes_from_every_point_cloud_format() {
     let file = dir.path().join("xyz/000000.npy");
     write_cloud(&file, &geometry, CloudFormat::Npy).unwrap();
     assert_eq!(detections(&file, &dir.path().join("xyz-out")), reference, "N x 3 .npy");
+}
+
+#[test]
+fn a_point_far_beyond_any_sensor_is_dropped_and_the_sweep_detects_as_without_it() {
+    let points = read_points(&sample_root().join("training/velodyne/000000.bin")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, points: Vec<[f32; 4]>| {
+        let file = dir.path().join(name).join("000000.bin");
+        let cloud = PointCloud {
+            points,
+            intensity: Intensity::Measured,
+        };
+        write_cloud(&file, &cloud, CloudFormat::KittiBin).unwrap();
+        file
+    };
+    let plain = write("plain", points.clone());
+    let reference = detections(&plain, &dir.path().join("plain-out"));
+    // The issue's finding: one finite point at x = 1e20 (a corrupt file) crashed the grid.
+    for (k, wild) in [[1e20, 0.0, 0.0, 0.5], [5.0, -f32::MAX, 1.0, 0.1], [0.0, 0.0, 2e3, 0.0]]
+        .into_iter()
+        .enumerate()
+    {
+        let mut with = points.clone();
+        with.insert(1000 * k + 7, wild);
+        let name = format!("wild{k}");
+        let out = dir.path().join(format!("{name}-out"));
+        let got = detections(&write(&name, with), &out);
+        assert_eq!(got, reference, "with a point at {wild:?}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("000000.json")).unwrap()).unwrap();
+        assert_eq!(json["wild_points_dropped"], 1, "{wild:?}");
+        assert_eq!(json["num_points"].as_u64(), Some(points.len() as u64));
+    }
 }

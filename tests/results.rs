@@ -106,6 +106,7 @@ fn detect_json_and_kitti_lines_of_the_same_boxes_score_alike() {
         let sweep = SweepDetections {
             id: id.clone(),
             num_points: frame.points.len(),
+            wild_points_dropped: 0,
             calibrated: true,
             detections: dets
                 .iter()
@@ -172,6 +173,7 @@ fn damaged_result_folders_are_named() {
     let other = SweepDetections {
         id: "999999".into(),
         num_points: 0,
+        wild_points_dropped: 0,
         calibrated: true,
         detections: Vec::new(),
     };

@@ -79,19 +79,17 @@ fn resuming_after_a_crash_gives_the_same_parameters() {
     )
     .unwrap();
     assert_eq!(part.steps, 3);
+    let mut other = cfg.clone();
+    other.train.learning_rate *= 2.0;
     assert!(
-        train(&cfg, &b, &TrainOptions::default()).is_err(),
-        "an existing run needs --resume"
+        matches!(
+            train(&other, &b, &TrainOptions::default()),
+            Err(starnet_train::TrainError::RunExists { .. })
+        ),
+        "an existing run of another config needs --resume"
     );
-    let resumed = train(
-        &cfg,
-        &b,
-        &TrainOptions {
-            resume: true,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    // The same config run again continues the run, as --resume does.
+    let resumed = train(&cfg, &b, &TrainOptions::default()).unwrap();
     assert_eq!(resumed.steps, full.steps);
     let last = |run: &Path| starnet_train::train::latest_checkpoint(&run.join("checkpoints")).unwrap();
     let (pa, pb) = (

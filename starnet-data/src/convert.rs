@@ -20,6 +20,7 @@ use crate::custom::{CustomObject, labels_path, parse_custom_labels, points_path}
 use crate::events::Task;
 use crate::io::{atomic_write, read, read_text};
 use crate::kitti::{Calib, KittiDataset, ObjectClass, parse_sidecar, read_labels, read_points};
+use crate::staging::{Claim, Staging};
 use crate::{DataError, Result};
 use std::path::Path;
 
@@ -32,8 +33,29 @@ pub struct Converted {
     pub splits: Vec<String>,
 }
 
-/// Writes the KITTI dataset at `src` (its `training/` frames) in the custom layout at `dst`.
+/// Runs `write` into the staging folder of `dst` ([`Staging`]: `dst` appears only when the
+/// conversion is complete; an interrupted one of the same job is redone into the same folder).
+fn staged(src: &Path, dst: &Path, layout: &str, write: impl FnOnce(&Path) -> Result<Converted>) -> Result<Converted> {
+    let job = serde_json::json!({ "convert": layout, "from": src.display().to_string() });
+    match Staging::claim(dst, &job)? {
+        Claim::Exists => Err(DataError::Occupied {
+            path: dst.to_path_buf(),
+        }),
+        Claim::Write(staging) => {
+            let done = write(staging.path())?;
+            staging.finish()?;
+            Ok(done)
+        }
+    }
+}
+
+/// Writes the KITTI dataset at `src` (its `training/` frames) in the custom layout at `dst`,
+/// which must be absent or empty.
 pub fn kitti_to_custom(src: &Path, dst: &Path) -> Result<Converted> {
+    staged(src, dst, "custom", |dst| write_custom(src, dst))
+}
+
+fn write_custom(src: &Path, dst: &Path) -> Result<Converted> {
     let ds = KittiDataset::open(src, None)?;
     let task = Task::begin("convert", ds.ids().len() as u64);
     for id in ds.ids() {
@@ -81,8 +103,13 @@ fn kitti_objects(ds: &KittiDataset, id: &str) -> Result<Vec<String>> {
         .collect())
 }
 
-/// Writes the custom dataset at `src` in the KITTI layout at `dst` (see the module docs).
+/// Writes the custom dataset at `src` in the KITTI layout at `dst` (see the module docs), which
+/// must be absent or empty.
 pub fn custom_to_kitti(src: &Path, dst: &Path) -> Result<Converted> {
+    staged(src, dst, "kitti", |dst| write_kitti(src, dst))
+}
+
+fn write_kitti(src: &Path, dst: &Path) -> Result<Converted> {
     let ds = KittiDataset::open(src, None)?;
     let task = Task::begin("convert", ds.ids().len() as u64);
     let calib = Calib::kitti_000000();

@@ -25,6 +25,26 @@ pub enum DataError {
         /// Its size in bytes.
         len: u64,
     },
+    /// An output folder that already holds files, where a command writes a whole new folder.
+    #[error("{path} is not empty: the output goes into a new or empty folder (delete this one to write it again)")]
+    Occupied {
+        /// The folder.
+        path: PathBuf,
+    },
+    /// A point beyond the config's limit, with `pipeline.wild_points.action = "refuse"`.
+    #[error(
+        "{path}: point {index} at {point:?} lies beyond {limit} m (pipeline.wild_points.limit); set pipeline.wild_points.action = \"drop\" to drop such points"
+    )]
+    WildPoint {
+        /// The file.
+        path: PathBuf,
+        /// 0-based index of the point.
+        index: usize,
+        /// Its x, y, z.
+        point: [f32; 3],
+        /// The limit, metres.
+        limit: f32,
+    },
     /// A point with a NaN or infinite coordinate.
     #[error("{path}: point {index} has a non-finite {field} ({value})")]
     NonFinitePoint {

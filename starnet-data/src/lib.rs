@@ -54,6 +54,7 @@ pub mod sampling;
 pub mod seed;
 pub mod settings;
 pub mod sim;
+pub mod staging;
 pub mod summary;
 
 pub use error::{DataError, Result};

@@ -21,8 +21,12 @@ pub struct DetectedBox {
 pub struct SweepDetections {
     /// Sweep id (the file stem).
     pub id: String,
-    /// Points in the sweep.
+    /// Points in the sweep, as detected.
     pub num_points: usize,
+    /// Points of the file beyond `pipeline.wild_points.limit`, dropped before detection
+    /// (absent from files written before the limit existed: 0).
+    #[serde(default)]
+    pub wild_points_dropped: usize,
     /// Whether a calibration was found (and KITTI result lines written).
     pub calibrated: bool,
     /// Boxes, best first.

@@ -130,7 +130,28 @@ pub fn write_safetensors(tensors: &[NamedTensor], metadata: &BTreeMap<String, St
         (t.name.as_str(), view)
     });
     let info = (!metadata.is_empty()).then(|| metadata.clone().into_iter().collect());
-    safetensors::serialize(views, info).expect("f32 tensors with distinct names serialise")
+    let bytes = safetensors::serialize(views, info).expect("f32 tensors with distinct names serialise");
+    canonical_header(bytes)
+}
+
+/// The file with its JSON header's keys in sorted order: the crate writes the metadata from a
+/// `HashMap`, whose order changes from run to run, and the same model must give the same bytes.
+/// The header stays padded with spaces to a multiple of 8 bytes, as the crate pads it.
+fn canonical_header(bytes: Vec<u8>) -> Vec<u8> {
+    let n = u64::from_le_bytes(bytes[..8].try_into().expect("8 length bytes")) as usize;
+    let mut header: BTreeMap<String, serde_json::Value> =
+        serde_json::from_slice(&bytes[8..8 + n]).expect("the crate writes a JSON object");
+    if let Some(meta) = header.get_mut("__metadata__") {
+        let sorted: BTreeMap<String, String> =
+            serde_json::from_value(meta.take()).expect("the metadata is a map of strings");
+        *meta = serde_json::to_value(sorted).expect("strings serialise");
+    }
+    let mut text = serde_json::to_vec(&header).expect("JSON values serialise");
+    text.resize(text.len().next_multiple_of(8), b' ');
+    let mut out = (text.len() as u64).to_le_bytes().to_vec();
+    out.extend_from_slice(&text);
+    out.extend_from_slice(&bytes[8 + n..]);
+    out
 }
 
 /// Tensors by name.
@@ -286,6 +307,21 @@ mod tests {
                 .iter()
                 .any(|t| t.name.contains("gamma") || t.name.contains("beta"))
         );
+    }
+
+    #[test]
+    fn the_same_tensors_and_metadata_give_the_same_bytes() {
+        let tensors = named_tensors(&StarNetConfig::small_car().init(&default_device()));
+        let meta: BTreeMap<String, String> = (0..12).map(|i| (format!("key{i}"), format!("value {i}"))).collect();
+        let first = write_safetensors(&tensors, &meta);
+        // The crate's metadata map is a HashMap, ordered afresh for every instance.
+        for _ in 0..8 {
+            assert!(
+                write_safetensors(&tensors, &meta) == first,
+                "the bytes changed between writes"
+            );
+        }
+        assert_eq!(read_safetensors(&first).unwrap().1, meta);
     }
 
     #[test]

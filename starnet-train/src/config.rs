@@ -315,7 +315,10 @@ impl ExperimentConfig {
                 ),
             });
         }
-        Ok(ds.with_labels(self.data.labels).with_missing_intensity(missing))
+        Ok(ds
+            .with_labels(self.data.labels)
+            .with_missing_intensity(missing)
+            .with_wild_points(self.pipeline.wild_points))
     }
 
     /// NMS settings per class.

@@ -84,8 +84,20 @@ pub enum TrainError {
         /// The parser's message.
         message: String,
     },
-    /// A run folder that already holds checkpoints, trained into without resuming.
-    #[error("{dir} already holds checkpoints: resume the run, or choose another run folder")]
+    /// A data root that a generation left incomplete (written before generations were staged):
+    /// it has frames but no split files and no `synth.json`.
+    #[error(
+        "{root} is incomplete: it has frames but no ImageSets/{split}.txt and no synth.json (an interrupted generation); delete {root} and run again to generate it whole"
+    )]
+    IncompleteData {
+        /// The data root.
+        root: PathBuf,
+        /// The split the config reads.
+        split: String,
+    },
+    /// A run folder that already holds checkpoints of another config, trained into without
+    /// resuming.
+    #[error("{dir} already holds checkpoints of another config: resume the run, or choose another run folder")]
     RunExists {
         /// The run folder.
         dir: PathBuf,
@@ -101,8 +113,9 @@ pub enum TrainError {
         /// The holder's process id, as it wrote it in the lock file.
         holder: Option<u32>,
     },
-    /// An output folder that already holds what would be written into it.
-    #[error("{dir} already holds generated data; choose an empty folder")]
+    /// An output folder that already holds something: a command that writes a whole folder
+    /// never mixes its files with others.
+    #[error("{dir} is not empty: choose a new or empty folder, or delete this one to write it again")]
     NotEmpty {
         /// The folder.
         dir: PathBuf,

@@ -7,11 +7,15 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use starnet_data::Point;
 use starnet_data::augment::GtDatabase;
 use starnet_data::cloud::{CloudFormat, Intensity, PcdEncoding, PlyEncoding, PointCloud, decode_cloud, encode_cloud};
 use starnet_data::custom::parse_custom_labels;
 use starnet_data::kitti::parse_sidecar;
-use starnet_data::kitti::{Calib, KittiDataset, decode_points, encode_points, format_labels, parse_labels};
+use starnet_data::kitti::{
+    Calib, Frame, ImageSize, KittiDataset, decode_points, encode_points, format_labels, parse_labels,
+};
+use starnet_data::sampling::{CenterPoolConfig, GatherConfig, PipelineConfig, prepare_frame};
 use starnet_data::sim::{SynthConfig, simulate_scene_frame};
 use std::path::{Path, PathBuf};
 
@@ -79,7 +83,7 @@ fn velodyne(sample: &Path) -> Target {
         name: "velodyne .bin",
         corpus,
         text: false,
-        run: Box::new(|b| decode_points(b, Path::new("fuzz.bin")).is_ok()),
+        run: Box::new(|b| decode_points(b, Path::new("fuzz.bin")).map(through_pipeline).is_ok()),
     }
 }
 
@@ -264,8 +268,32 @@ fn cloud(format: CloudFormat, name: &'static str) -> Target {
             format,
             CloudFormat::Pcd(PcdEncoding::Ascii) | CloudFormat::Ply(PlyEncoding::Ascii)
         ),
-        run: Box::new(move |b| decode_cloud(b, &path).is_ok()),
+        run: Box::new(move |b| decode_cloud(b, &path).map(|c| through_pipeline(c.points)).is_ok()),
     }
+}
+
+/// What follows a read in `starnet detect` and the loaders: the grid, FPS and gather of a frame's
+/// preparation, here on the points as read (the wild-point limit left out, as a user's own
+/// loop may leave it out), all around the sensor so that every point may become a center.
+fn through_pipeline(points: Vec<Point>) {
+    let cfg = PipelineConfig {
+        pool: CenterPoolConfig::all_around(f32::INFINITY),
+        num_centers: 16,
+        gather: GatherConfig {
+            num_points: 8,
+            radius: 2.0,
+            ..PipelineConfig::default().gather
+        },
+        ..PipelineConfig::default()
+    };
+    let frame = Frame {
+        id: "fuzz".into(),
+        points,
+        objects: Vec::new(),
+        calib: Calib::kitti_000000(),
+        image_size: ImageSize::KITTI,
+    };
+    prepare_frame(&frame, &cfg, None, &[], &mut ChaCha8Rng::seed_from_u64(0));
 }
 
 fn custom_labels() -> Target {

@@ -10,6 +10,8 @@
 //!   sensor that reports 0–255 needs its own scaling before a KITTI-trained model sees it.
 //! * A point with a NaN coordinate is "no return" and dropped; any other non-finite value is an
 //!   error ([`DataError::NonFinitePoint`](crate::DataError::NonFinitePoint)).
+//! * A finite point beyond any sensor's range is dropped and counted, or refused, as the
+//!   config's [`WildPoints`] says, by the dataset and `starnet detect`; the readers pass it on.
 //! * A header is checked against the file before the format's crate reads it, so a corrupt or
 //!   hostile header is an error naming the file, never a panic or a huge allocation.
 //!
@@ -22,11 +24,13 @@ mod npy;
 mod pcd;
 mod ply;
 mod point_cloud;
+mod wild;
 
 pub use bin::{decode_points, encode_points, read_points, write_points};
 pub use format::{CLOUD_EXTENSIONS, CloudFormat, CloudKind, PcdEncoding, PlyEncoding};
 pub use io::{decode_cloud, encode_cloud, read_cloud, write_cloud};
 pub use point_cloud::{INTENSITY_NAMES, Intensity, PointCloud};
+pub use wild::{Kept, WildAction, WildPoints};
 
 /// Fixtures and an allocation probe for the readers' tests.
 #[cfg(test)]

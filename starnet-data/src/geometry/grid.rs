@@ -42,8 +42,24 @@ pub struct SpatialGrid {
     order: Vec<u32>,
 }
 
+/// The most cells a [`SpatialGrid`] allocates (4 MiB of cell starts).
+const MAX_CELLS: f64 = (1u64 << 20) as f64;
+
+/// The side of the cells over the extent `lo..hi`: `cell`, doubled until at most
+/// `MAX_CELLS` cover the extent.
+fn cell_side(lo: [f32; 2], hi: [f32; 2], cell: f32) -> f32 {
+    let extent = [0, 1].map(|a| f64::from(hi[a]) - f64::from(lo[a]));
+    let mut side = f64::from(cell);
+    while (extent[0] / side + 1.0) * (extent[1] / side + 1.0) > MAX_CELLS {
+        side *= 2.0;
+    }
+    side as f32
+}
+
 impl SpatialGrid {
-    /// Buckets `points` into square cells of side `cell` (a counting sort).
+    /// Buckets `points` into square cells of side `cell` (a counting sort). A cloud spread
+    /// wider than `MAX_CELLS` (2^20) cells of that side (a wild point kilometres away) gets cells
+    /// doubled in side until it fits: queries stay exact, only slower.
     pub fn new(points: &[Point], cell: f32) -> Self {
         let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
         for p in points {
@@ -55,10 +71,10 @@ impl SpatialGrid {
         if points.is_empty() {
             (lo, hi) = ([0.0; 2], [0.0; 2]);
         }
-        let dims = [
-            ((hi[0] - lo[0]) / cell) as usize + 1,
-            ((hi[1] - lo[1]) / cell) as usize + 1,
-        ];
+        let cell = cell_side(lo, hi, cell);
+        // f64: the extent of two far points can pass f32's range; the cast saturates.
+        let span = |a: usize| ((f64::from(hi[a]) - f64::from(lo[a])) / f64::from(cell)) as usize + 1;
+        let dims = [span(0), span(1)];
         let cell_of = |p: &Point| {
             (((p[0] - lo[0]) / cell) as usize).min(dims[0] - 1) * dims[1]
                 + (((p[1] - lo[1]) / cell) as usize).min(dims[1] - 1)
@@ -120,6 +136,46 @@ impl SpatialGrid {
                 if metric.distance2(dx, dy, dz) <= r2 {
                     out.push(self.order[k]);
                 }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn near_cloud() -> Vec<Point> {
+        (0..200)
+            .map(|i| {
+                let t = i as f32 * 0.37;
+                [t.sin() * 10.0, t.cos() * 7.0, (t * 0.3).sin(), 0.5]
+            })
+            .collect()
+    }
+
+    fn query(grid: &SpatialGrid, c: [f32; 3]) -> Vec<u32> {
+        let mut out = Vec::new();
+        grid.within(c, 3.0, GatherMetric::Ball, &mut out);
+        out.sort_unstable();
+        out
+    }
+
+    #[test]
+    fn a_point_far_beyond_any_sensor_leaves_the_grid_small_and_the_queries_exact() {
+        let near = near_cloud();
+        let plain = SpatialGrid::new(&near, 0.5);
+        for far in [1e20, f32::MAX, -f32::MAX] {
+            let mut wild = near.clone();
+            wild.push([far, -far, 0.0, 0.0]);
+            let grid = SpatialGrid::new(&wild, 0.5);
+            assert!(
+                grid.starts.len() as f64 <= MAX_CELLS + 1.0,
+                "{} cells",
+                grid.starts.len()
+            );
+            for c in [[0.0, 0.0, 0.0], [9.0, 2.0, 0.5], [-5.0, -6.0, 0.0]] {
+                assert_eq!(query(&grid, c), query(&plain, c), "at {c:?} with a point at {far}");
             }
         }
     }

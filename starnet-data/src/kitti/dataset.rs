@@ -5,8 +5,9 @@
 
 use super::sidecar::read_sidecar;
 use super::{Calib, ImageSize, KittiObject, ObjectClass, observation_angle, read_labels, read_points, read_split};
-use crate::cloud::{Intensity, read_cloud};
+use crate::cloud::{Intensity, WildPoints, read_cloud};
 use crate::custom::{CustomObject, POINTS_DIR, is_custom_layout, labels_path, points_path, read_custom_labels};
+use crate::events::note;
 use crate::{Box3d, DataError, Point, Result};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -77,6 +78,7 @@ pub struct KittiDataset {
     labels: LabelSource,
     layout: Layout,
     missing_intensity: MissingIntensity,
+    wild_points: WildPoints,
 }
 
 impl KittiDataset {
@@ -107,6 +109,7 @@ impl KittiDataset {
             },
             layout,
             missing_intensity: MissingIntensity::Refuse,
+            wild_points: WildPoints::default(),
         })
     }
 
@@ -120,6 +123,27 @@ impl KittiDataset {
     pub fn with_missing_intensity(mut self, missing: MissingIntensity) -> Self {
         self.missing_intensity = missing;
         self
+    }
+
+    /// The same frames, with points beyond `wild`'s limit dropped (a note names the file and
+    /// the count) or refused, as it says (the default drops those beyond 1 km).
+    pub fn with_wild_points(mut self, wild: WildPoints) -> Self {
+        self.wild_points = wild;
+        self
+    }
+
+    /// The points of `path` within the limit of [`KittiDataset::with_wild_points`].
+    fn tame(&self, points: Vec<Point>, path: &Path) -> Result<Vec<Point>> {
+        let kept = self.wild_points.apply(points, path)?;
+        if kept.dropped > 0 {
+            note(format!(
+                "{}: dropped {} points beyond {} m (pipeline.wild_points)",
+                path.display(),
+                kept.dropped,
+                self.wild_points.limit
+            ));
+        }
+        Ok(kept.points)
     }
 
     /// The same frames, labelled from `labels`.
@@ -158,7 +182,8 @@ impl KittiDataset {
             return self.load_custom(id);
         }
         let existing = |dir: &str, ext: &str| require_file(self.path(dir, id, ext), id);
-        let points = read_points(&existing("velodyne", "bin")?)?;
+        let velodyne = existing("velodyne", "bin")?;
+        let points = self.tame(read_points(&velodyne)?, &velodyne)?;
         let calib = Calib::read(&existing("calib", "txt")?)?;
         let image = self.path("image_2", id, "png");
         let image_size = if image.is_file() {
@@ -216,7 +241,7 @@ impl KittiDataset {
             .collect();
         Ok(Frame {
             id: id.to_string(),
-            points: cloud.points,
+            points: self.tame(cloud.points, &points_file)?,
             objects,
             calib,
             image_size: ImageSize::KITTI,

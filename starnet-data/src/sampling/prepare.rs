@@ -6,9 +6,10 @@ use super::{
     level_centers, sample_centers,
 };
 use crate::augment::{AugmentConfig, AugmentDraw, GtDatabase, Scene, augment, ring_dropout};
+use crate::cloud::WildPoints;
 use crate::geometry::{GroundConfig, GroundModel};
 use crate::kitti::{Frame, ObjectClass};
-use crate::settings::{Checked, InvalidSetting, at_least_one};
+use crate::settings::{Checked, InvalidSetting, at_least_one, positive};
 use crate::{Box3d, Point};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -35,6 +36,9 @@ pub struct PipelineConfig {
     /// `reference_z`), and `center_z = "ground"` lifts the centers by it. `None`: the authors'
     /// flat-ground setting.
     pub ground: Option<GroundConfig>,
+    /// Points beyond any sensor's range (a corrupt file): dropped and counted, or refused,
+    /// when a frame is loaded ([`WildPoints`]; `limit = 1000.0` m, `action = "drop"`).
+    pub wild_points: WildPoints,
 }
 
 impl PipelineConfig {
@@ -52,7 +56,8 @@ impl PipelineConfig {
             }
             None => {}
         }
-        self.gather.validate().map_err(|e| e.within("gather"))
+        self.gather.validate().map_err(|e| e.within("gather"))?;
+        positive("wild_points.limit", f64::from(self.wild_points.limit))
     }
 
     /// The ground of `points`, when the config levels the cloud.
@@ -76,6 +81,7 @@ impl Default for PipelineConfig {
                 reflectance: super::ReflectanceInput::Measured,
             },
             ground: None,
+            wild_points: WildPoints::default(),
         }
     }
 }

@@ -9,6 +9,10 @@
 //! ROOT/synth.json                                            what generated the set
 //! ```
 //!
+//! The set is written into a partial folder beside `ROOT` and renamed to `ROOT` when complete
+//! ([`Staging`]): a run killed at any moment leaves no `ROOT`, and the next run with the same
+//! arguments keeps the frames it finished and writes the rest.
+//!
 //! Determinism: every scene draws from its own RNG seeded from (seed, scene index), and every
 //! frame's sensor noise from (scene seed, frame index), so the bytes do not depend on how the
 //! work is spread over threads.
@@ -23,6 +27,7 @@ use crate::kitti::{
 use crate::kitti::{SimObject, write_sidecar};
 use crate::par::parallel_for;
 use crate::seed::sub_seed;
+use crate::staging::{Claim, Outcome, Staging};
 use crate::{Point, Result};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -163,10 +168,21 @@ pub fn write_frame(training: &Path, id: &str, frame: &SynthFrame, calib: &Calib)
 /// version 1).
 pub const SIMULATOR_VERSION: u32 = 4;
 
-fn write_manifest(root: &Path, mut what: serde_json::Value) -> Result<()> {
+/// What a generation writes to `synth.json`, and the job its partial folder is kept for.
+fn manifest(mut what: serde_json::Value) -> serde_json::Value {
     what["simulator_version"] = SIMULATOR_VERSION.into();
-    let text = serde_json::to_string_pretty(&what).expect("JSON values serialise") + "\n";
+    what
+}
+
+fn write_manifest(root: &Path, what: &serde_json::Value) -> Result<()> {
+    let text = serde_json::to_string_pretty(what).expect("JSON values serialise") + "\n";
     atomic_write(&root.join("synth.json"), text.as_bytes())
+}
+
+/// Whether frame `id` under `training` was written whole by an interrupted run: its sidecar,
+/// the last of its four files, exists (each is written atomically).
+fn frame_done(training: &Path, id: &str) -> bool {
+    training.join("label_360").join(format!("{id}.txt")).is_file()
 }
 
 /// The simulator version that generated the set at `root` (from its `synth.json`; 1 when the
@@ -188,20 +204,32 @@ pub fn generated_version(root: &Path) -> Result<Option<u32>> {
     ))
 }
 
-/// Writes `frames` independent scenes under `root` with train/val splits. `progress` is called
-/// once per finished frame (from worker threads).
+/// Writes `frames` independent scenes with train/val splits as `root` ([`Staging`]: nothing
+/// appears at `root` until the set is complete, and an interrupted run is continued), or
+/// returns [`Outcome::AlreadyPresent`] when `root` already holds something. `progress` is
+/// called once per finished frame (from worker threads).
 pub fn synth_frames(
     root: &Path,
     frames: usize,
     seed: u64,
     cfg: &SynthConfig,
     progress: &(dyn Fn() + Sync),
-) -> Result<()> {
+) -> Result<Outcome> {
+    let what =
+        manifest(serde_json::json!({ "generator": "starnet synth", "frames": frames, "seed": seed, "config": cfg }));
+    let staging = match Staging::claim(root, &what)? {
+        Claim::Exists => return Ok(Outcome::AlreadyPresent),
+        Claim::Write(staging) => staging,
+    };
+    let dir = staging.path();
     let calib = Calib::kitti_000000();
-    let training = root.join("training");
+    let training = dir.join("training");
     parallel_for(frames, |i| {
-        let frame = simulate_scene_frame(seed, i, cfg, &calib);
-        write_frame(&training, &format!("{i:06}"), &frame, &calib)?;
+        let id = format!("{i:06}");
+        if !frame_done(&training, &id) {
+            let frame = simulate_scene_frame(seed, i, cfg, &calib);
+            write_frame(&training, &id, &frame, &calib)?;
+        }
         progress();
         Ok(())
     })?;
@@ -211,17 +239,16 @@ pub fn synth_frames(
     for (i, id) in ids.iter().enumerate() {
         if is_val(i) { &mut val } else { &mut train }.push(id.clone());
     }
-    write_split(&root.join("ImageSets/train.txt"), &train)?;
-    write_split(&root.join("ImageSets/val.txt"), &val)?;
-    write_split(&root.join("ImageSets/trainval.txt"), &ids)?;
-    write_manifest(
-        root,
-        serde_json::json!({ "generator": "starnet synth", "frames": frames, "seed": seed, "config": cfg }),
-    )
+    write_split(&dir.join("ImageSets/train.txt"), &train)?;
+    write_split(&dir.join("ImageSets/val.txt"), &val)?;
+    write_split(&dir.join("ImageSets/trainval.txt"), &ids)?;
+    write_manifest(dir, &what)?;
+    staging.finish()?;
+    Ok(Outcome::Written)
 }
 
-/// Writes `sequences` sequences of `length` frames under `root/sequences/%04d/`, each a KITTI
-/// root with a `poses.txt`.
+/// Writes `sequences` sequences of `length` frames as `root/sequences/%04d/`, each a KITTI
+/// root with a `poses.txt`; staged and continued as [`synth_frames`] is.
 pub fn synth_sequences(
     root: &Path,
     sequences: usize,
@@ -229,7 +256,15 @@ pub fn synth_sequences(
     seed: u64,
     cfg: &SynthConfig,
     progress: &(dyn Fn() + Sync),
-) -> Result<()> {
+) -> Result<Outcome> {
+    let what = manifest(
+        serde_json::json!({ "generator": "starnet synth", "sequences": sequences, "length": length, "seed": seed, "config": cfg }),
+    );
+    let staging = match Staging::claim(root, &what)? {
+        Claim::Exists => return Ok(Outcome::AlreadyPresent),
+        Claim::Write(staging) => staging,
+    };
+    let dir = staging.path();
     let calib = Calib::kitti_000000();
     let duration = length as f32 * cfg.frame_interval;
     let worlds: Vec<(u64, World)> = (0..sequences)
@@ -247,14 +282,18 @@ pub fn synth_sequences(
     parallel_for(sequences * length, |k| {
         let (s, i) = (k / length, k % length);
         let (scene_seed, world) = &worlds[s];
-        let frame = simulate_frame(world, i, sub_seed(*scene_seed, 1, i as u64), cfg, &calib);
-        write_frame(
-            &root.join(format!("sequences/{s:04}/training")),
-            &format!("{i:06}"),
-            &frame,
-            &calib,
-        )?;
-        poses[s].lock().expect("no panics while holding it")[i] = sensor_pose(frame.pose, frame.tilt);
+        let training = dir.join(format!("sequences/{s:04}/training"));
+        let id = format!("{i:06}");
+        let pose = if frame_done(&training, &id) {
+            // The frame is on disk: its pose is the world's at that moment, as the scan's was.
+            let (moment, _) = world.moment(i as f32 * cfg.frame_interval);
+            sensor_pose(moment.pose, moment.tilt)
+        } else {
+            let frame = simulate_frame(world, i, sub_seed(*scene_seed, 1, i as u64), cfg, &calib);
+            write_frame(&training, &id, &frame, &calib)?;
+            sensor_pose(frame.pose, frame.tilt)
+        };
+        poses[s].lock().expect("no panics while holding it")[i] = pose;
         progress();
         Ok(())
     })?;
@@ -262,12 +301,11 @@ pub fn synth_sequences(
         let p = p.into_inner().expect("no panics while holding it");
         let first = p[0].inverse();
         let text: String = p.iter().map(|q| pose_line(&first.compose(q)) + "\n").collect();
-        atomic_write(&root.join(format!("sequences/{s:04}/poses.txt")), text.as_bytes())?;
+        atomic_write(&dir.join(format!("sequences/{s:04}/poses.txt")), text.as_bytes())?;
     }
-    write_manifest(
-        root,
-        serde_json::json!({ "generator": "starnet synth", "sequences": sequences, "length": length, "seed": seed, "config": cfg }),
-    )
+    write_manifest(dir, &what)?;
+    staging.finish()?;
+    Ok(Outcome::Written)
 }
 
 /// The sensor's pose in the scene's level world frame: `[x, y, z, yaw]`, then its tilt.

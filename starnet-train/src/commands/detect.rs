@@ -12,11 +12,11 @@
 use crate::detector::Detector;
 use crate::evaluate::frame_seed;
 use crate::{Result, TrainError};
-use starnet_data::cloud::{CLOUD_EXTENSIONS, Intensity, read_cloud};
+use starnet_data::DataError;
+use starnet_data::cloud::{CLOUD_EXTENSIONS, Intensity, Kept, read_cloud};
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::{Calib, Frame, ImageSize, write_results};
 use starnet_data::sampling::ReflectanceInput;
-use starnet_data::{DataError, Point};
 use starnet_eval::{DetectedBox, SweepDetections, to_kitti};
 use std::path::{Path, PathBuf};
 
@@ -47,7 +47,7 @@ pub fn sweep_files(input: &Path) -> Result<Vec<PathBuf>> {
 }
 
 /// The points of a sweep; a cloud without intensity only for a model that ignores it.
-fn sweep_points(path: &Path, detector: &Detector) -> Result<Vec<Point>> {
+fn sweep_points(path: &Path, detector: &Detector) -> Result<Kept> {
     let cloud = read_cloud(path)?;
     let reads_reflectance = detector.pipeline.gather.reflectance == ReflectanceInput::Measured;
     if cloud.intensity == Intensity::Absent && reads_reflectance {
@@ -56,7 +56,7 @@ fn sweep_points(path: &Path, detector: &Detector) -> Result<Vec<Point>> {
         }
         .into());
     }
-    Ok(cloud.points)
+    Ok(detector.pipeline.wild_points.apply(cloud.points, path)?)
 }
 
 /// The calibration of a sweep: `given`, or the KITTI layout's `../calib/{id}.txt`.
@@ -91,9 +91,10 @@ pub fn detect(
             .file_stem()
             .map_or_else(|| format!("{i:06}"), |s| s.to_string_lossy().into_owned());
         let found = calibration(bin, calib)?;
+        let kept = sweep_points(bin, detector)?;
         let frame = Frame {
             id: id.clone(),
-            points: sweep_points(bin, detector)?,
+            points: kept.points,
             objects: Vec::new(),
             calib: found.clone().unwrap_or_else(Calib::kitti_000000),
             image_size: ImageSize::KITTI,
@@ -110,6 +111,7 @@ pub fn detect(
         let sweep = SweepDetections {
             id: id.clone(),
             num_points: frame.points.len(),
+            wild_points_dropped: kept.dropped,
             calibrated: found.is_some(),
             detections: detections
                 .iter()

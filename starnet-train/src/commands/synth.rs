@@ -3,6 +3,7 @@
 use crate::{Result, TrainError};
 use starnet_data::events::{Task, note};
 use starnet_data::sim::{SynthConfig, dataset_stats, synth_frames, synth_sequences};
+use starnet_data::staging::Outcome;
 use std::path::Path;
 use std::time::Instant;
 
@@ -20,15 +21,14 @@ pub enum SynthJob {
     },
 }
 
-/// Generates a dataset under `root`. Refuses a root that already holds one, so frames from an
-/// earlier, larger run can never mix with this one.
+/// Generates a dataset as `root`, written beside it and renamed into place when complete (an
+/// interrupted run of the same command is continued). Refuses a root that already holds
+/// something, so frames from an earlier, larger run can never mix with this one.
 pub fn run_synth(root: &Path, job: SynthJob, seed: u64, cfg: &SynthConfig) -> Result<()> {
-    let existing = match job {
-        SynthJob::Frames(_) => root.join("training/velodyne"),
-        SynthJob::Sequences { .. } => root.join("sequences"),
-    };
-    if existing.read_dir().is_ok_and(|mut d| d.next().is_some()) {
-        return Err(TrainError::NotEmpty { dir: existing });
+    if root.read_dir().is_ok_and(|mut d| d.next().is_some()) {
+        return Err(TrainError::NotEmpty {
+            dir: root.to_path_buf(),
+        });
     }
     let start = Instant::now();
     let total = match job {
@@ -37,11 +37,17 @@ pub fn run_synth(root: &Path, job: SynthJob, seed: u64, cfg: &SynthConfig) -> Re
     };
     let task = Task::begin("synth", total as u64);
     let tick = || task.inc(1);
-    match job {
+    let outcome = match job {
         SynthJob::Frames(n) => synth_frames(root, n, seed, cfg, &tick)?,
         SynthJob::Sequences { sequences, length } => synth_sequences(root, sequences, length, seed, cfg, &tick)?,
-    }
+    };
     drop(task);
+    // Another process wrote the root while this one waited for it.
+    if outcome == Outcome::AlreadyPresent {
+        return Err(TrainError::NotEmpty {
+            dir: root.to_path_buf(),
+        });
+    }
     let secs = start.elapsed().as_secs_f64();
     note(format!(
         "wrote {total} frames to {} in {secs:.1} s ({:.1} frames/s)",

@@ -42,7 +42,9 @@ pub fn open_sequences(root: &Path, cfg: &ExperimentConfig) -> Result<Vec<Sequenc
 impl Sequence {
     /// One sequence folder (a KITTI root with `poses.txt`), labelled as `cfg` says.
     pub fn open(dir: &Path, cfg: &ExperimentConfig) -> Result<Self> {
-        let dataset = KittiDataset::open(dir, None)?.with_labels(cfg.data.labels);
+        let dataset = KittiDataset::open(dir, None)?
+            .with_labels(cfg.data.labels)
+            .with_wild_points(cfg.pipeline.wild_points);
         let poses_path = dir.join("poses.txt");
         let poses = read_poses(&poses_path)?;
         if poses.len() != dataset.ids().len() {

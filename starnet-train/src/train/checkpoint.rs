@@ -55,9 +55,40 @@ pub fn save_checkpoint(
         .map_err(|e| ckpt_error(&tmp.join("optim.bpk"), e))?;
     let json = serde_json::to_string_pretty(state).expect("state serialises");
     std::fs::write(tmp.join("state.json"), json).map_err(|e| ckpt_error(&tmp.join("state.json"), e))?;
-    let _ = std::fs::remove_dir_all(&target);
+    // The old checkpoint steps aside before the new one takes its name, so a kill between the
+    // two renames leaves a whole checkpoint that `recover_checkpoints` puts back.
+    let old = dir.join(format!(".{name}.old"));
+    let _ = std::fs::remove_dir_all(&old);
+    if target.exists() {
+        std::fs::rename(&target, &old).map_err(|e| ckpt_error(&target, e))?;
+    }
     std::fs::rename(&tmp, &target).map_err(|e| ckpt_error(&target, e))?;
+    let _ = std::fs::remove_dir_all(&old);
     Ok(target)
+}
+
+/// Puts back what a kill inside [`save_checkpoint`] left in `dir`: a checkpoint moved aside
+/// (`.NAME.old`) whose replacement never took its name returns to `NAME`; unfinished
+/// temporary folders are removed.
+pub fn recover_checkpoints(dir: &Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let file_name = entry.file_name().to_string_lossy().into_owned();
+        let path = entry.path();
+        if let Some(name) = file_name.strip_prefix('.').and_then(|n| n.strip_suffix(".old")) {
+            let target = dir.join(name);
+            if target.exists() {
+                std::fs::remove_dir_all(&path).map_err(|e| ckpt_error(&path, e))?;
+            } else {
+                std::fs::rename(&path, &target).map_err(|e| ckpt_error(&target, e))?;
+            }
+        } else if file_name.starts_with('.') && file_name.ends_with(".tmp") {
+            std::fs::remove_dir_all(&path).map_err(|e| ckpt_error(&path, e))?;
+        }
+    }
+    Ok(())
 }
 
 /// Loads the evaluation model of a checkpoint folder into `model`: its `ema.bpk` (averaged
@@ -198,6 +229,29 @@ mod tests {
         cfg.model.d_fc0 = 8;
         cfg.model.d_offset = 4;
         cfg.model_config().init(&starnet_model::backend::default_device())
+    }
+
+    #[test]
+    fn a_checkpoint_moved_aside_by_a_killed_save_is_put_back() {
+        let dir = tempfile::tempdir().unwrap();
+        // A kill after the old `best` stepped aside, before the new one took its name.
+        std::fs::create_dir_all(dir.path().join(".best.old")).unwrap();
+        std::fs::write(dir.path().join(".best.old/state.json"), "old").unwrap();
+        std::fs::create_dir_all(dir.path().join(".best.tmp")).unwrap();
+        // And a kill after the rename: the old one is left aside beside its replacement.
+        std::fs::create_dir_all(dir.path().join("step-00000004")).unwrap();
+        std::fs::create_dir_all(dir.path().join(".step-00000004.old")).unwrap();
+        recover_checkpoints(dir.path()).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("best/state.json")).unwrap(),
+            "old"
+        );
+        let mut names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["best", "step-00000004"]);
     }
 
     #[test]

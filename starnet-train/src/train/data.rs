@@ -50,6 +50,9 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
     }
     // A dataset in the custom layout is the user's own: nothing is generated beside it.
     let present = root.join("training/velodyne").is_dir() || is_custom_layout(root);
+    if present && cfg.data.simulate_frames > 0 {
+        refuse_incomplete(root, &cfg.data.train_split)?;
+    }
     if !present && cfg.data.simulate_frames > 0 {
         note(format!(
             "generating {} simulated frames at {}",
@@ -57,6 +60,8 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
             root.display()
         ));
         let task = Task::begin("synth", cfg.data.simulate_frames as u64);
+        // Staged: another trainer generating the same root is waited for, and an interrupted
+        // generation is continued (`Outcome::AlreadyPresent`: the other trainer wrote it).
         synth_frames(
             root,
             cfg.data.simulate_frames,
@@ -68,6 +73,20 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
     let db = database_path(root, cfg.data.labels, &cfg.data.train_split);
     if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&db) {
         prepare_database(root, &cfg.data.train_split, cfg.data.labels)?;
+    }
+    Ok(())
+}
+
+/// Refuses a root with frames but neither the split file nor `synth.json`: what an interrupted
+/// generation left before generations were staged, which would otherwise fail with a bare
+/// "No such file" on the split.
+fn refuse_incomplete(root: &Path, split: &str) -> Result<()> {
+    let split_file = root.join("ImageSets").join(format!("{split}.txt"));
+    if !split_file.is_file() && !root.join("synth.json").is_file() {
+        return Err(TrainError::IncompleteData {
+            root: root.to_path_buf(),
+            split: split.to_string(),
+        });
     }
     Ok(())
 }
@@ -222,8 +241,35 @@ mod tests {
             other => panic!("expected a stale-simulation error, got {other:?}"),
         }
         assert!(root.join("synth.json").is_file(), "nothing is deleted");
-        // A real dataset (no synth.json) is never questioned.
+        // Frames without split files or synth.json: what an unstaged, interrupted generation left.
         std::fs::remove_file(root.join("synth.json")).unwrap();
+        let err = ensure_data(&cfg).unwrap_err();
+        assert!(matches!(err, TrainError::IncompleteData { .. }), "{err:?}");
+        assert!(err.to_string().contains("delete"), "the error names the remedy: {err}");
+        // A real dataset (split files, no synth.json) is never questioned.
+        std::fs::create_dir_all(root.join("ImageSets")).unwrap();
+        std::fs::write(root.join("ImageSets/train.txt"), "000000\n").unwrap();
         assert!(ensure_data(&cfg).is_ok());
+    }
+
+    #[test]
+    fn an_absent_root_is_generated_whole_beside_itself() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("sim");
+        let mut cfg = ExperimentConfig::default();
+        cfg.data.root = root.clone();
+        cfg.data.simulate_frames = 2;
+        cfg.augment.db_paste.enabled = false;
+        ensure_data(&cfg).unwrap();
+        assert!(root.join("ImageSets/train.txt").is_file() && root.join("synth.json").is_file());
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(
+            names,
+            vec![std::ffi::OsString::from("sim")],
+            "only the root is left beside it"
+        );
     }
 }

@@ -9,7 +9,7 @@
 //! A streaming config (`stream.train_slices`) cuts every sweep of a step into the same drawn
 //! number of slices and runs them as one sequence (through the LSTM, when the model has one).
 
-use super::checkpoint::{latest_checkpoint, prune};
+use super::checkpoint::{latest_checkpoint, prune, recover_checkpoints};
 use super::data::{TrainItem, ensure_data, paste_database, train_loader};
 use super::init_from::{InitReport, InitSource};
 use super::log::{StepRecord, TrainLog, progress_line};
@@ -110,7 +110,9 @@ pub struct RunFolder {
 
 impl RunFolder {
     /// Takes the writer's lock of `dir` ([`RunLock`]: a folder another trainer is writing is
-    /// refused) and prepares it for `cfg`; a folder holding checkpoints needs `resume`.
+    /// refused) and prepares it for `cfg`. A folder holding checkpoints is resumed when
+    /// `resume` says so or when its `config.toml` is `cfg` (the same command run again after a
+    /// kill continues, as OpenPCDet's does); with another config it is refused.
     pub fn create(dir: &Path, cfg: &ExperimentConfig, resume: bool) -> Result<Self> {
         Self::create_locked(dir, cfg, resume, RunLock::acquire(dir)?)
     }
@@ -118,12 +120,21 @@ impl RunFolder {
     /// [`RunFolder::create`] with the lock of `dir` already held.
     pub fn create_locked(dir: &Path, cfg: &ExperimentConfig, resume: bool, lock: RunLock) -> Result<Self> {
         let checkpoints = dir.join("checkpoints");
+        recover_checkpoints(&checkpoints)?;
         let resume_from = latest_checkpoint(&checkpoints);
+        let config = to_toml(cfg);
         if resume_from.is_some() && !resume {
-            return Err(TrainError::RunExists { dir: dir.to_path_buf() });
+            let saved = std::fs::read_to_string(dir.join("config.toml")).unwrap_or_default();
+            if saved != config {
+                return Err(TrainError::RunExists { dir: dir.to_path_buf() });
+            }
+            note(format!(
+                "{} holds checkpoints of this same config: continuing it (choose another run folder to start over)",
+                dir.display()
+            ));
         }
         std::fs::create_dir_all(&checkpoints).map_err(|e| starnet_data::DataError::io(&checkpoints, e))?;
-        starnet_data::io::atomic_write(&dir.join("config.toml"), to_toml(cfg).as_bytes())?;
+        starnet_data::io::atomic_write(&dir.join("config.toml"), config.as_bytes())?;
         Ok(Self {
             dir: dir.to_path_buf(),
             checkpoints,

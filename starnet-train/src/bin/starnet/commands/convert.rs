@@ -31,12 +31,6 @@ pub struct Convert {
 
 impl Convert {
     pub fn run(self) -> anyhow::Result<()> {
-        let occupied = std::fs::read_dir(&self.to).is_ok_and(|mut d| d.next().is_some());
-        anyhow::ensure!(
-            !occupied,
-            "{} is not empty: convert writes into a new folder",
-            self.to.display()
-        );
         let done = match self.layout {
             Target::Custom => kitti_to_custom(&self.from, &self.to)?,
             Target::Kitti => custom_to_kitti(&self.from, &self.to)?,

@@ -46,8 +46,12 @@ impl Detect {
             } else {
                 " (no calibration: JSON only)"
             };
+            let wild = match s.wild_points_dropped {
+                0 => String::new(),
+                n => format!(" ({n} beyond pipeline.wild_points.limit dropped)"),
+            };
             println!(
-                "{}: {} points, {} detections{note}",
+                "{}: {} points{wild}, {} detections{note}",
                 s.id,
                 s.num_points,
                 s.detections.len()
