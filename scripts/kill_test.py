@@ -258,6 +258,9 @@ def main():
     ap.add_argument("--only", help="run only the commands whose name contains this")
     ap.add_argument("--disk-full", action="store_true", help="also the simulator on a full tmpfs (needs root)")
     args = ap.parse_args()
+    # A process started in the background of a shell inherits SIGINT ignored, and an ignored signal
+    # stays ignored across exec: with a handler of our own, the commands start with the default.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     binary = str(Path(args.bin).resolve())
     rng = random.Random(args.seed)
     work = Path(tempfile.mkdtemp(prefix="starnet-kill-"))
