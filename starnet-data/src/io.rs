@@ -1,8 +1,10 @@
 //! File helpers shared by every writer: nothing is ever left half-written.
 
 use crate::{DataError, Result};
+use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 /// The temporary file beside `path` that [`atomic_write`] writes before renaming it over
 /// `path`: hidden, in the same directory (so the rename is atomic) and unique to this process.
@@ -21,6 +23,7 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
         _ => Path::new("."),
     };
     std::fs::create_dir_all(dir).map_err(|e| DataError::io(dir, e))?;
+    remove_dead_temporaries_once(dir);
     let tmp = temp_path(path);
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
@@ -33,6 +36,40 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
         return Err(DataError::io(path, e));
     }
     Ok(())
+}
+
+/// The directories this process has already swept of dead writers' temporary files.
+static SWEPT: Mutex<Option<HashSet<PathBuf>>> = Mutex::new(None);
+
+/// Removes, the first time this process writes into `dir`, the temporary files of writers
+/// killed between writing and renaming ([`temp_path`]'s `.NAME.tmpPID` of a process that no
+/// longer runs), so that a command run again after a kill leaves what an uninterrupted run
+/// does. Another live process's temporary file is left alone. Best effort: a file that cannot
+/// be listed or removed stays, hidden, and nothing reads it.
+fn remove_dead_temporaries_once(dir: &Path) {
+    let mut swept = SWEPT.lock().unwrap_or_else(|e| e.into_inner());
+    if !swept.get_or_insert_with(HashSet::new).insert(dir.to_path_buf()) {
+        return;
+    }
+    drop(swept);
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let writer = name.to_string_lossy().strip_prefix('.').and_then(temp_writer);
+        if writer.is_some_and(|pid| pid != std::process::id() && !process_runs(pid)) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
+/// The process id in a temporary file's name (`NAME.tmpPID`, the leading dot removed).
+fn temp_writer(name: &str) -> Option<u32> {
+    name.rsplit_once(".tmp").and_then(|(_, pid)| pid.parse().ok())
+}
+
+/// Whether process `pid` runs (Linux: `/proc/PID` exists; elsewhere assumed to run).
+fn process_runs(pid: u32) -> bool {
+    !cfg!(target_os = "linux") || Path::new("/proc").join(pid.to_string()).exists()
 }
 
 /// Reads a whole file, mapping a missing file and other failures to [`DataError::Io`].
@@ -77,6 +114,24 @@ mod tests {
         assert_eq!(std::fs::read(&p).unwrap(), b"two");
         let names: Vec<_> = std::fs::read_dir(p.parent().unwrap()).unwrap().collect();
         assert_eq!(names.len(), 1, "a temporary file was left behind");
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn a_dead_writers_temporary_file_goes_and_a_live_ones_stays() {
+        let dir = tempfile::tempdir().unwrap();
+        // Pid 0 runs no user process (no /proc/0); pid 1 runs in every Linux system.
+        let dead = dir.path().join(".a.txt.tmp0");
+        let live = dir.path().join(".b.txt.tmp1");
+        let other = dir.path().join(".notes.tmp.txt");
+        for p in [&dead, &live, &other] {
+            std::fs::write(p, b"half").unwrap();
+        }
+        atomic_write(&dir.path().join("a.txt"), b"whole").unwrap();
+        assert!(!dead.exists(), "a killed writer's temporary file was left");
+        assert!(live.exists() && other.exists(), "a live writer's or another file was removed");
+        assert_eq!(temp_writer("000013.txt.tmp12047"), Some(12047));
+        assert_eq!(temp_writer("notes.tmp.txt"), None);
     }
 
     #[test]
