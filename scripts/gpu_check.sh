@@ -16,6 +16,9 @@
 #
 #   scripts/gpu_check.sh [OUT]                       # OUT defaults to runs/gpu-check
 #   SECONDS_PER_RUN=60 BATCHES="2 16" scripts/gpu_check.sh
+#   LAYOUTS="grouped flat" CONFIG=configs/sim-car-paper.toml scripts/gpu_check.sh
+# LAYOUTS: the GPU runs' `model.row_layout` values, each trained (issue #50: "grouped", the default
+# on a GPU, against "flat", the layout before it); CONFIG: the experiment trained.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-runs/gpu-check}
@@ -23,6 +26,8 @@ bin=${BIN:-.gpu-bin}
 seconds=${SECONDS_PER_RUN:-30}
 batches=${BATCHES:-2 16}
 data=${DATA:-data/sim}
+layouts=${LAYOUTS:-grouped flat}
+config=${CONFIG:-configs/quickstart.toml}
 mkdir -p "$out"
 summary=$out/summary.txt
 stage() { echo "== $* (+${SECONDS} s)" | tee -a "$summary"; }
@@ -81,15 +86,16 @@ fi
 # A 16-frame validation split: the runs' final evaluation is not what is measured.
 head -16 "$data/ImageSets/val.txt" > "$data/ImageSets/val16.txt"
 
-# One training run: label, binary, device, batch size, loader workers, step threads.
+# One training run: label, binary, device, batch size, loader workers, step threads, row layout.
 train() {
-  local label=$1 exe=$2 device=$3 batch=$4 workers=$5 threads=$6
+  local label=$1 exe=$2 device=$3 batch=$4 workers=$5 threads=$6 layout=$7
   [[ -x $exe ]] || return 0
   stage "train $label: $device, batch $batch, $workers loader workers, $threads step threads, ${seconds} s"
   local run=$out/runs/$label
   rm -rf "$run"
   # Stopped by SIGINT after $seconds s (the run saves a checkpoint, evaluates on 16 frames and ends).
-  if timeout -s INT -k 30 "$seconds" "$exe" train --config configs/quickstart.toml --device "$device" --run "$run" \
+  if timeout -s INT -k 30 "$seconds" "$exe" train --config "$config" --device "$device" --run "$run" \
+      --set model.row_layout=\"$layout\" \
       --set "data.root=\"$data\"" --set data.val_split=\"val16\" \
       --set train.log_every=1 --set train.eval_every=0 --set train.batch_size="$batch" \
       --set train.workers="$workers" --set train.step_threads="$threads" > "$out/$label.out" 2>&1; then
@@ -107,9 +113,11 @@ step_threads=$(( cores > 8 ? cores - 4 : cores / 2 ))
 for b in $batches; do
   [[ ${TRAIN:-1} == 1 ]] || break
   for variant in "${variants[@]}"; do
-    train "gpu$variant-b$b" "$bin/starnet$variant" vulkan "$b" 8 1
+    for layout in $layouts; do
+      train "gpu$variant-$layout-b$b" "$bin/starnet$variant" vulkan "$b" 8 1 "$layout"
+    done
   done
-  train "cpu-b$b" "$bin/starnet" flex "$b" $(( cores - step_threads )) "$step_threads"
+  train "cpu-b$b" "$bin/starnet" flex "$b" $(( cores - step_threads )) "$step_threads" auto
 done
 
 # Where a GPU step's time goes (PROFILE=1): CubeCL's profiler times every kernel (each then runs
@@ -122,7 +130,7 @@ if [[ -n ${PROFILE:-} ]]; then
     stage "kernel profile$variant: vulkan, batch $b, 12 steps"
     log=$(cd "$out" && pwd)/cubecl-profile$variant-b$b.log
     printf '[profiling.logger]\nlevel = "basic"\nfile = "%s"\n' "$log" > cubecl.toml
-    ( time timeout 150 "$bin/starnet$variant" train --config configs/quickstart.toml --device vulkan \
+    ( time timeout 150 "$bin/starnet$variant" train --config "$config" --device vulkan \
         --run "$out/runs/profile$variant-b$b" --max-steps 12 --set "data.root=\"$data\"" \
         --set data.val_split=\"val16\" --set train.log_every=1 --set train.batch_size="$b" \
         --set train.workers=8 > "$out/profile$variant-b$b.out" 2>&1 ) 2>> "$summary"

@@ -129,7 +129,10 @@ mod tests {
         }
         atomic_write(&dir.path().join("a.txt"), b"whole").unwrap();
         assert!(!dead.exists(), "a killed writer's temporary file was left");
-        assert!(live.exists() && other.exists(), "a live writer's or another file was removed");
+        assert!(
+            live.exists() && other.exists(),
+            "a live writer's or another file was removed"
+        );
         assert_eq!(temp_writer("000013.txt.tmp12047"), Some(12047));
         assert_eq!(temp_writer("notes.tmp.txt"), None);
     }

@@ -17,7 +17,7 @@ use starnet_model::assign::AssignConfig;
 use starnet_model::backend::DeviceChoice;
 use starnet_model::loss::LossConfig;
 use starnet_model::nms::{ClassNms, Emission, NmsConfig, Precedence};
-use starnet_model::nn::{FeaturizerConfig, StarNetConfig};
+use starnet_model::nn::{FeaturizerConfig, RowLayout, StarNetConfig};
 use std::path::{Path, PathBuf};
 use toml::{Table, Value};
 
@@ -71,6 +71,12 @@ pub struct ModelSection {
     /// predate it mean true.
     #[serde(default = "fused_by_default")]
     pub fused_blocks: bool,
+    /// How the composed layers (every backend but flex's fused kernels: a GPU) lay out a
+    /// batch's rows: "auto" (grouped on a GPU, flat on the CPU), "flat" (one long product and
+    /// sum over every point), "grouped" (G short ones, then a sum over G;
+    /// `starnet_model::nn::row_layout`). The same maths, to float rounding.
+    #[serde(default)]
+    pub row_layout: RowLayout,
 }
 
 fn fused_by_default() -> bool {
@@ -235,6 +241,7 @@ impl Default for ExperimentConfig {
                 direction_classifier: false,
                 shared_size: false,
                 fused_blocks: true,
+                row_layout: RowLayout::Auto,
             },
             assign: AssignConfig::default(),
             loss: LossConfig::new(),
@@ -285,7 +292,9 @@ impl Default for ExperimentConfig {
 impl ExperimentConfig {
     /// The model's Burn config.
     pub fn model_config(&self) -> StarNetConfig {
-        let f = FeaturizerConfig::new(self.model.d_fc0, self.model.blocks.clone()).with_fused(self.model.fused_blocks);
+        let f = FeaturizerConfig::new(self.model.d_fc0, self.model.blocks.clone())
+            .with_fused(self.model.fused_blocks)
+            .with_rows(self.model.row_layout);
         StarNetConfig::new(
             f,
             self.model.d_offset,

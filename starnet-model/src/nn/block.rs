@@ -5,6 +5,7 @@
 
 use super::fused::kernel::{BlockStats, BnStats};
 use super::fused::op::{self, ParamTensors};
+use super::row_layout::{self, RowLayout};
 use super::{MaskedBatchNorm, MaskedBatchNormConfig, linear};
 use burn::module::Module;
 use burn::nn::Linear;
@@ -43,6 +44,9 @@ pub struct StarNetBlockConfig {
     /// Run as the fused operation where the backend allows it (flex, f32), else composed.
     #[config(default = true)]
     pub fused: bool,
+    /// How the composed form lays out its rows ([`RowLayout`]).
+    #[config(default = "RowLayout::Auto")]
+    pub rows: RowLayout,
 }
 
 /// One StarNet block.
@@ -53,6 +57,8 @@ pub struct StarNetBlock {
     bn2: MaskedBatchNorm,
     fc2: Linear,
     fused: bool,
+    #[module(skip)]
+    rows: RowLayout,
 }
 
 impl StarNetBlock {
@@ -65,12 +71,14 @@ impl StarNetBlock {
 impl StarNetBlockConfig {
     /// Builds the block.
     pub fn init(&self, device: &Device) -> StarNetBlock {
+        let bn = |width: usize| MaskedBatchNormConfig::new(width).with_rows(self.rows).init(device);
         StarNetBlock {
-            bn1: MaskedBatchNormConfig::new(2 * self.d_input).init(device),
+            bn1: bn(2 * self.d_input),
             fc1: linear(2 * self.d_input, self.d_hidden, false, device),
-            bn2: MaskedBatchNormConfig::new(self.d_hidden).init(device),
+            bn2: bn(self.d_hidden),
             fc2: linear(self.d_hidden, self.d_output, false, device),
             fused: self.fused,
+            rows: self.rows,
         }
     }
 }
@@ -95,13 +103,14 @@ impl StarNetBlock {
     /// As [`Self::forward`].
     pub fn forward_composed(&self, f: Tensor<3>, mask: Tensor<3>) -> Tensor<3> {
         let [bc, p, d] = f.dims();
+        let g = self.rows.groups(bc * p, &f.device());
         let pooled = masked_max(f.clone(), mask.clone()).expand([bc, p, d]);
-        let g = Tensor::cat(vec![f, pooled], 2).reshape([bc * p, 2 * d]); // [N, 2d]
-        let m = mask.reshape([bc * p, 1]);
+        let x = Tensor::cat(vec![f, pooled], 2).reshape([g.groups, g.rows, 2 * d]); // [G, R, 2d]
+        let m = mask.reshape([g.groups, g.rows, 1]);
         // BN zeroes padded rows and the linear layers have no bias, so padding stays 0.
-        let h = relu(self.fc1.forward(self.bn1.forward(g, m.clone())));
-        let h = relu(self.fc2.forward(self.bn2.forward(h, m)));
-        let [_, out] = h.dims();
+        let h = relu(row_layout::linear(&self.fc1, self.bn1.forward_rows(x, m.clone())));
+        let h = relu(row_layout::linear(&self.fc2, self.bn2.forward_rows(h, m)));
+        let [_, _, out] = h.dims();
         h.reshape([bc, p, out])
     }
 

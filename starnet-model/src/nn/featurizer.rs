@@ -3,6 +3,7 @@
 //! every block's output into one cell feature per center.
 
 use super::fused::stack_op::{self, StackTensors};
+use super::row_layout::{self, RowLayout};
 use super::{MaskedBatchNorm, StarNetBlock, StarNetBlockConfig, linear};
 use burn::module::Module;
 use burn::nn::Linear;
@@ -24,6 +25,9 @@ pub struct FeaturizerConfig {
     /// another; off: the composed Burn operations everywhere (the reference).
     #[config(default = true)]
     pub fused: bool,
+    /// How the composed layers lay out a batch's rows ([`RowLayout`]; the fused ones need none).
+    #[config(default = "RowLayout::Auto")]
+    pub rows: RowLayout,
 }
 
 impl FeaturizerConfig {
@@ -51,6 +55,7 @@ impl FeaturizerConfig {
             .map(|&[hidden, out]| {
                 let b = StarNetBlockConfig::new(d, hidden, out)
                     .with_fused(self.fused)
+                    .with_rows(self.rows)
                     .init(device);
                 d = out;
                 b
@@ -59,6 +64,7 @@ impl FeaturizerConfig {
         Featurizer {
             fc0: linear(self.d_input, self.d_fc0, true, device),
             blocks,
+            rows: self.rows,
         }
     }
 }
@@ -68,6 +74,8 @@ impl FeaturizerConfig {
 pub struct Featurizer {
     fc0: Linear,
     blocks: Vec<StarNetBlock>,
+    #[module(skip)]
+    rows: RowLayout,
 }
 
 impl Featurizer {
@@ -134,7 +142,10 @@ impl Featurizer {
         let [b, c, p, f] = points.dims();
         let m = mask.reshape([b * c, p, 1]);
         // fc0 has a bias: zero the padded rows so every later max and mean can ignore them.
-        let mut h = relu(self.fc0.forward(points.reshape([b * c, p, f]))) * m.clone(); // [BC, P, d0]
+        let g = self.rows.groups(b * c * p, &points.device());
+        let h = relu(row_layout::linear(&self.fc0, points.reshape([g.groups, g.rows, f]))); // [G, R, d0]
+        let [_, _, d0] = h.dims();
+        let mut h = h.reshape([b * c, p, d0]) * m.clone(); // [BC, P, d0]
         // Every h is zero in padded rows (fc0's by the mask, a block's because its BatchNorm
         // zeroes them and its Linears have no bias), so the masked mean needs no mask product:
         // the sum over P divided by the real-point count, counted once.

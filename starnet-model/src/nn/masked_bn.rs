@@ -4,6 +4,7 @@
 //! mask. Mode follows Burn's convention: batch statistics on an autodiff device with the
 //! training flag on (`model.valid()` turns both off), running statistics otherwise.
 
+use super::row_layout::{self, RowLayout};
 use crate::replicas::op::all_sum;
 use burn::module::{Flag, Module, Param, RunningState};
 use burn::nn::Initializer;
@@ -20,6 +21,9 @@ pub struct MaskedBatchNormConfig {
     /// Weight of a new batch in the running statistics (lingvo's decay 0.99 → 0.01).
     #[config(default = 0.01)]
     pub momentum: f64,
+    /// How the composed forward lays out its rows ([`RowLayout`]).
+    #[config(default = "RowLayout::Auto")]
+    pub rows: RowLayout,
 }
 
 /// Masked batch normalisation over rows `[N, D]`.
@@ -39,6 +43,9 @@ pub struct MaskedBatchNorm {
     pub momentum: f64,
     /// See the config.
     pub epsilon: f64,
+    /// See the config.
+    #[module(skip)]
+    pub rows: RowLayout,
 }
 
 impl MaskedBatchNormConfig {
@@ -53,6 +60,7 @@ impl MaskedBatchNormConfig {
             running_var: RunningState::new(Tensor::ones([self.num_features], device)),
             momentum: self.momentum,
             epsilon: self.epsilon,
+            rows: self.rows,
         }
     }
 }
@@ -63,25 +71,40 @@ impl MaskedBatchNorm {
     /// - `mask`: `[N, 1]`, 1.0 for real rows and 0.0 for padding
     /// - output: `[N, D]`, zero in padded rows
     pub fn forward(&self, x: Tensor<2>, mask: Tensor<2>) -> Tensor<2> {
-        let [_, d] = x.dims();
+        let [n, d] = x.dims();
+        let g = self.rows.groups(n, &x.device());
+        let x = x.reshape([g.groups, g.rows, d]);
+        self.forward_rows(x, mask.reshape([g.groups, g.rows, 1]))
+            .reshape([n, d])
+    }
+
+    /// [`Self::forward`] on rows already laid out as `[G, R, ·]` ([`super::row_layout`]).
+    ///
+    /// # Shapes
+    /// - `x`: `[G, R, D]`
+    /// - `mask`: `[G, R, 1]`
+    /// - output: `[G, R, D]`, zero in padded rows
+    pub fn forward_rows(&self, x: Tensor<3>, mask: Tensor<3>) -> Tensor<3> {
+        let [_, r, d] = x.dims();
         let (mean, var) = if self.uses_batch_statistics(&x.device()) {
             // Sums over the replica group, when training data-parallel: the statistics are the
             // whole batch's (synchronised BatchNorm); `all_sum` is the identity otherwise.
-            let count = all_sum(mask.clone().sum()).clamp_min(1.0).reshape([1, 1]);
-            let mean = all_sum((x.clone() * mask.clone()).sum_dim(0)) / count.clone(); // [1, D]
-            let centred = (x.clone() - mean.clone()) * mask.clone();
-            let var = all_sum(centred.powi_scalar(2).sum_dim(0)) / count; // [1, D]
+            let count = all_sum(row_layout::sum_rows(mask.clone())).clamp_min(1.0); // [1, 1, 1]
+            let mean = all_sum(row_layout::sum_rows(x.clone() * mask.clone())) / count.clone(); // [1, 1, D]
+            let centred = (x.clone() - row_layout::per_channel(mean.clone(), r)) * mask.clone();
+            let var = all_sum(row_layout::sum_rows(centred.powi_scalar(2))) / count; // [1, 1, D]
             self.update_running(mean.clone().reshape([d]), var.clone().reshape([d]));
             (mean, var)
         } else {
             let dev = x.device();
             (
-                self.running_mean.value().to_device(&dev).reshape([1, d]),
-                self.running_var.value().to_device(&dev).reshape([1, d]),
+                self.running_mean.value().to_device(&dev).reshape([1, 1, d]),
+                self.running_var.value().to_device(&dev).reshape([1, 1, d]),
             )
         };
-        let scale = self.gamma.val().reshape([1, d]) / (var + self.epsilon).sqrt();
-        ((x - mean) * scale + self.beta.val().reshape([1, d])) * mask
+        let scale = self.gamma.val().reshape([1, 1, d]) / (var + self.epsilon).sqrt();
+        let shifted = x - row_layout::per_channel(mean, r);
+        (shifted * row_layout::per_channel(scale, r) + row_layout::per_channel(self.beta.val(), r)) * mask
     }
 }
 
