@@ -60,11 +60,11 @@ impl RowGroups {
         Self { groups: 1, rows: n }
     }
 
-    /// The largest G ≤ √n that divides n, or flat where that G is under [`MIN_GROUPS`] (n
+    /// The largest G ≤ √n that divides n, or flat where that G is under 4 (n
     /// with no divisor near its root; batches of power-of-two widths always have one).
     pub fn balanced(n: usize) -> Self {
         let root = n.isqrt();
-        let groups = (1..=root).rev().find(|g| n % g == 0).unwrap_or(1);
+        let groups = (1..=root).rev().find(|g| n.is_multiple_of(*g)).unwrap_or(1);
         if groups < MIN_GROUPS {
             return Self::flat(n);
         }
