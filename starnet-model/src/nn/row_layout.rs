@@ -20,7 +20,7 @@ pub enum RowLayout {
     /// Grouped on a GPU, flat on the CPU backends.
     #[default]
     Auto,
-    /// One product and one sum over all N rows (Burn's `Linear`, a plain broadcast).
+    /// One product and one sum over all N rows, as Burn's `Linear` and a plain broadcast compute them.
     Flat,
     /// `[G, R, D]` with G and R near √N (see the module docs).
     Grouped,
