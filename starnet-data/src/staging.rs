@@ -192,6 +192,14 @@ fn remove_temporaries(dir: &Path) -> Result<()> {
 mod tests {
     use super::*;
 
+    /// The names of the entries of `dir`, in the order the file system lists them.
+    fn names(dir: &Path) -> Vec<std::ffi::OsString> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect()
+    }
+
     fn job(n: u64) -> serde_json::Value {
         serde_json::json!({ "frames": n })
     }
@@ -213,10 +221,7 @@ mod tests {
         s.finish().unwrap();
         assert_eq!(std::fs::read(root.join("a.txt")).unwrap(), b"a");
         assert!(!root.join(JOB_FILE).exists());
-        let left: Vec<_> = std::fs::read_dir(dir.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
+        let left = names(dir.path());
         assert_eq!(
             left,
             vec![std::ffi::OsString::from("sim")],
@@ -235,11 +240,8 @@ mod tests {
         std::fs::write(s.path().join(".next.txt.tmp123"), b"half").unwrap();
         drop(s);
         let again = write_into(&root, 3);
-        let names: Vec<_> = std::fs::read_dir(again.path())
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(names.len(), 2, "{names:?}");
+        let kept = names(again.path());
+        assert_eq!(kept.len(), 2, "{kept:?}");
         assert_eq!(std::fs::read(again.path().join("done.txt")).unwrap(), b"kept");
         drop(again);
         let other = write_into(&root, 4);
