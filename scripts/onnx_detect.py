@@ -125,9 +125,15 @@ def center_pool(points, pool, calib, rise=None):
     return np.flatnonzero(keep)
 
 
-def fps_bev(xy, n, rng):
-    chosen = [int(rng.integers(len(xy)))]
+def fps_bev(xy, n, rng, seeds=None):
+    """FPS in (x, y): from a random first point, or continuing from `seeds` (not returned)."""
     dist = np.full(len(xy), np.inf)
+    if seeds is not None and len(seeds):
+        for c in seeds:
+            dist = np.minimum(dist, ((xy - c[:2]) ** 2).sum(1))
+        chosen = [int(dist.argmax())]
+    else:
+        chosen = [int(rng.integers(len(xy)))]
     for _ in range(1, min(n, len(xy))):
         dist = np.minimum(dist, ((xy - xy[chosen[-1]]) ** 2).sum(1))
         chosen.append(int(dist.argmax()))
@@ -327,15 +333,34 @@ def check_golden(export):
     return worst
 
 
-def sample_and_gather(points, pool, n, spec, rng, readable=None, rise=None):
-    """FPS centers from the pool's points and their neighbourhoods in `readable` (default:
-    `points`); `rise`, the ground's, lifts `center_z = "ground"` centers onto a road that is not flat."""
-    chosen = pool[fps_bev(points[pool, :2].astype(np.float64), n, rng)]
+def spaced_picks(xy, most, seeds, spacing, rng):
+    """FPS continued from `seeds`, at most `most` picks, stopping before the first that lies
+    within `spacing` of a center (starnet_data::sampling::spaced_centers)."""
+    picks = fps_bev(xy, most, rng, seeds)
+    placed = [c[:2] for c in seeds] if seeds is not None else []
+    kept = []
+    for i in picks:
+        if any(np.hypot(*(xy[i] - c)) < spacing for c in placed):
+            break
+        kept.append(i)
+        placed.append(xy[i])
+    return np.array(kept, int)
+
+
+def centers_of(points, chosen, spec, rise):
     centers = points[chosen, :3].astype(np.float32)
     if spec["center_z"] == "zero":
         centers[:, 2] = 0.0
     elif spec["center_z"] == "ground":
         centers[:, 2] = rise(centers[:, 0], centers[:, 1])
+    return centers
+
+
+def sample_and_gather(points, pool, n, spec, rng, readable=None, rise=None):
+    """FPS centers from the pool's points and their neighbourhoods in `readable` (default:
+    `points`); `rise`, the ground's, lifts `center_z = "ground"` centers onto a road that is not flat."""
+    chosen = pool[fps_bev(points[pool, :2].astype(np.float64), n, rng)]
+    centers = centers_of(points, chosen, spec, rise)
     feats, mask = gather(points if readable is None else readable, centers, spec["num_points"],
                          spec["radius"], spec.get("gather_metric", "ball"), rng)
     return centers, feats, mask
@@ -351,38 +376,98 @@ def boxes_and_scores(spec, centers, outputs):
     return boxes, 1.0 / (1.0 + np.exp(-logits.reshape(len(anchors), -1)))
 
 
-def slice_of(points, n, slicing):
-    """Each point's slice of n, as starnet_data::sampling::SliceConfig::slice_of."""
+def along_deg(points, slicing):
+    """Azimuth from the sweep's start in the rotation sense, [0, 360) (SliceConfig::along_deg)."""
     az = np.degrees(np.arctan2(points[:, 1], points[:, 0]))
     start = slicing["start_azimuth_deg"]
     along = (start - az) if slicing["clockwise"] else (az - start)
-    return np.minimum((np.mod(along, 360.0) / (360.0 / n)).astype(int), n - 1)
+    return np.minimum(np.mod(along, 360.0), np.nextafter(np.float32(360.0), np.float32(0.0)))
+
+
+def slice_of(points, n, slicing):
+    """Each point's slice of n, as starnet_data::sampling::SliceConfig::slice_of."""
+    return np.minimum((along_deg(points, slicing) / (360.0 / n)).astype(int), n - 1)
+
+
+def to_undelivered(points, slicing, delivered):
+    """BEV distance to the azimuths not delivered once `delivered` degrees have been
+    (starnet_data::sampling::distance_to_undelivered)."""
+    if delivered >= 360.0:
+        return np.full(len(points), np.inf)
+    along, rho = along_deg(points, slicing), np.hypot(points[:, 0], points[:, 1])
+    if delivered <= 0.0:
+        return np.zeros(len(points))
+
+    def ray(gap):
+        return np.where(gap >= 90.0, rho, rho * np.sin(np.radians(np.minimum(gap, 90.0))))
+
+    d = np.minimum(ray(delivered - along), ray(np.minimum(along, 360.0 - along)))
+    return np.where(along >= delivered, 0.0, d)
+
+
+def slice_views(points, n, slicing, radius):
+    """Per slice, in order: the points it reads and which of them may hold a center, as
+    starnet_data::sampling::SweepSlicer for the contexts own, previous and arrived."""
+    which = slice_of(points, n, slicing)
+    for s in range(n):
+        current = points[which == s]
+        context = slicing["context"]
+        if context == "own" or (context == "previous" and s == 0):
+            yield current, np.ones(len(current), bool)
+        elif context == "previous":
+            previous = points[which == s - 1]
+            yield np.concatenate([previous, current]), np.r_[np.zeros(len(previous), bool), np.ones(len(current), bool)]
+        elif context == "arrived":
+            before, after = s * 360.0 / n, 360.0 if s + 1 == n else (s + 1) * 360.0 / n
+            delivered = points[which <= s]
+            was = to_undelivered(delivered, slicing, before)
+            near = was < 2 * radius
+            ready = (was < radius) & (to_undelivered(delivered, slicing, after) >= radius)
+            yield delivered[near], ready[near]
+        else:
+            raise SystemExit(f"model.json: unknown streaming.slicing.context {context!r}")
 
 
 def detect_streaming(session, spec, points, n, rng):
     """The sweep as n slices in order through the slice step, the LSTM state carried."""
     streaming = spec["streaming"]
+    slicing = streaming["slicing"]
     h = streaming["lstm_hidden"]
     state = {"state_h": np.zeros((1, h), np.float32), "state_c": np.zeros((1, h), np.float32)}
     per = max(1, -(-spec["num_centers"] // n))
     pool_cfg = dict(spec["center_pool"], camera_frustum=False)  # a slice's pool has no frustum
-    which = slice_of(points, n, streaming["slicing"])
-    all_boxes, all_scores, used = [], [], 0
-    for s in range(n):
-        current = points[which == s]
-        readable = current
-        if streaming["slicing"]["gather_previous"] and s > 0:
-            readable = np.concatenate([points[which == s - 1], current])
+    spaced = slicing["centers"] == "spaced" and n > 1
+    if spaced:
+        per = math.ceil(per * slicing["peak"])
+    all_boxes, all_scores, used, placed = [], [], 0, np.zeros((0, 3), np.float32)
+    steps = []  # (readable, centers or None), the last slice's further steps appended
+    for s, (readable, ready) in enumerate(slice_views(points, n, slicing, spec["radius"])):
         rise = ground_rise(readable, spec.get("ground"))
-        pool = center_pool(current, pool_cfg, None, rise)
+        pool = np.intersect1d(center_pool(readable, pool_cfg, None, rise), np.flatnonzero(ready))
         if len(pool) == 0:
+            steps.append((readable, None))
+            continue
+        xy = readable[pool, :2].astype(np.float64)
+        if spaced:
+            most = len(pool) if s + 1 == n else per
+            chosen = pool[spaced_picks(xy, most, placed, slicing["spacing"], rng)]
+        elif slicing["centers"] == "continued":
+            chosen = pool[fps_bev(xy, per, rng, placed)]
+        else:
+            chosen = pool[fps_bev(xy, per, rng)]
+        centers = centers_of(readable, chosen, spec, rise)
+        placed = np.concatenate([placed, centers])
+        steps.extend((readable, centers[i:i + per]) for i in range(0, max(len(centers), 1), per))
+    for readable, centers in steps:
+        if centers is None or len(centers) == 0:
             # No candidates: one padding center, invalid, so the LSTM sees a zero input.
             centers = np.zeros((1, 3), np.float32)
             feats = np.zeros((1, spec["num_points"], 4), np.float32)
             mask = np.zeros((1, spec["num_points"]), np.float32)
             valid = np.zeros(1, np.float32)
         else:
-            centers, feats, mask = sample_and_gather(current, pool, per, spec, rng, readable, rise)
+            feats, mask = gather(readable, centers, spec["num_points"], spec["radius"],
+                                 spec.get("gather_metric", "ball"), rng)
             valid = np.ones(len(centers), np.float32)
         outputs = session.run(None, {"points": feats, "mask": mask, "center_valid": valid, **state})
         state = {"state_h": outputs[-2], "state_c": outputs[-1]}

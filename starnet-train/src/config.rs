@@ -11,7 +11,7 @@ use crate::{Result, TrainError};
 use serde::{Deserialize, Serialize};
 use starnet_data::augment::AugmentConfig;
 use starnet_data::kitti::{KittiDataset, LabelSource, Layout, MissingIntensity, ObjectClass};
-use starnet_data::sampling::{AnchorGrid, PipelineConfig, ReflectanceInput, SliceConfig};
+use starnet_data::sampling::{AnchorGrid, PipelineConfig, ReflectanceInput, SliceCenters, SliceConfig};
 use starnet_data::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive, width};
 use starnet_model::assign::AssignConfig;
 use starnet_model::backend::DeviceChoice;
@@ -102,9 +102,11 @@ pub struct StreamSection {
     /// more confident, unless the earlier one was already emitted; as NMS over both slices'
     /// boxes) or `arrival` (the earlier one always).
     pub nms_precedence: Precedence,
-    /// When stateful NMS emits a box: `immediate` (the paper: when its slice is done) or
+    /// When stateful NMS emits a box: `immediate` (the paper: when its slice is done),
     /// `settled` (a box whose footprint, grown by half its length, reaches a slice not yet
-    /// delivered waits one slice and is decided with that slice's candidates).
+    /// delivered waits one slice and is decided with that slice's candidates) or `deferred`
+    /// (global NMS streamed: each box once no later box can overlap it; memory and precedence
+    /// unused).
     pub nms_emission: Emission,
     /// Streaming evaluations count objects and detections within this bird's-eye-view range,
     /// metres (the center pool's reach; `inf`: everything labelled).
@@ -495,6 +497,15 @@ impl StreamSection {
             return Err(InvalidSetting::new(
                 "eval_range",
                 format!("{} is not a positive range (inf: everything)", self.eval_range),
+            ));
+        }
+        if !self.train_slices.is_empty() && self.slicing.centers == SliceCenters::Spaced {
+            // A training step runs its sweeps as one sequence of equally many slices; a spaced
+            // sweep takes as many further steps as its seam needs.
+            return Err(InvalidSetting::new(
+                "slicing.centers",
+                "\"spaced\" varies the steps per sweep and cannot train on slices (train_slices): \
+                 train with \"continued\" or \"fresh\", stream-evaluate with \"spaced\"",
             ));
         }
         self.slicing.validate().map_err(|e| e.within("slicing"))
@@ -983,6 +994,9 @@ mod tests {
                 "stream.slicing.start_azimuth_deg=inf",
                 "stream.slicing.start_azimuth_deg",
             ),
+            ("stream.slicing.spacing=0.0", "stream.slicing.spacing"),
+            ("stream.slicing.peak=0.5", "stream.slicing.peak"),
+            ("stream.slicing.context=\"later\"", "stream.slicing.context"),
         ];
         for (set, key) in cases {
             match load_config(&ok, &[set.into()]) {
@@ -990,6 +1004,22 @@ mod tests {
                 other => panic!("{set}: expected an error naming {key}, got {other:?}"),
             }
         }
+        // Spaced centers vary the steps per sweep: they stream, they do not train on slices.
+        let spaced = [
+            "stream.slicing.centers=\"spaced\"".to_string(),
+            "stream.train_slices=[1, 8]".into(),
+        ];
+        match load_config(&ok, &spaced) {
+            Err(TrainError::Config { key, message, .. }) => {
+                assert_eq!(key, "stream.slicing.centers");
+                assert!(message.contains("train_slices"), "{message}");
+            }
+            other => panic!("expected spaced training to be refused, got {other:?}"),
+        }
+        assert!(
+            load_config(&ok, &spaced[..1]).is_ok(),
+            "spaced streaming evaluation is fine"
+        );
     }
 
     #[test]

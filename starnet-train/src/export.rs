@@ -132,7 +132,8 @@ pub struct StreamingSpec {
     pub slicing: SliceConfig,
     /// Slices per sweep n of the run's evaluations (the model serves any n).
     pub eval_slices: usize,
-    /// Centers per slice: `ceil(num_centers / n)`, at least 1.
+    /// Centers per slice: `ceil(num_centers / n)`, at least 1 (times `slicing.peak`, rounded up,
+    /// for spaced centers at n > 1).
     pub centers_per_slice: &'static str,
     /// Stateful NMS: a slice's boxes are also suppressed by those kept in the previous k slices
     /// (and by the boxes those suppressed something with, and the last slice by the first's),
@@ -156,11 +157,14 @@ impl StreamingSpec {
                     previous slice's state_h_out / state_c_out",
             slice_order: "a sweep is cut into n equal azimuth sectors, starting at slicing.start_azimuth_deg \
                           and turning as slicing.clockwise says; each point (atan2(y, x)) falls in one, and \
-                          slices run in that order. A slice's centers come from its own points; center_valid \
-                          is 0 for repeats that pad a slice with fewer candidates than its centers",
+                          slices run in that order. Where a slice's centers go and what its neighbourhoods read \
+                          is slicing.context (own, previous, arrived) and how many it takes slicing.centers \
+                          (scripts/onnx_detect.py follows each); center_valid is 0 for repeats that pad a \
+                          slice with fewer candidates than its centers",
             slicing: cfg.stream.slicing,
             eval_slices: cfg.stream.eval_slices,
-            centers_per_slice: "ceil(num_centers / n), at least 1",
+            centers_per_slice: "ceil(num_centers / n), at least 1; with slicing.centers = spaced and n > 1, \
+                                that times slicing.peak, rounded up",
             nms_memory: cfg.stream.nms_memory,
             nms_precedence: cfg.stream.nms_precedence,
             nms_emission: cfg.stream.nms_emission,

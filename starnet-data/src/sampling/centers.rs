@@ -100,24 +100,83 @@ pub fn sample_centers(
         Sampler::Random => random_subset(pool.len(), want, rng),
         Sampler::Fps => fps(points, pool, want, &[], rng),
     };
-    let zval = |p: &[f32]| if z == CenterZ::Point { p[2] } else { 0.0 };
-    let mut xyz: Vec<[f32; 3]> = seeds.iter().map(|s| [s[0], s[1], zval(s)]).collect();
+    let mut xyz: Vec<[f32; 3]> = seeds.iter().map(|s| [s[0], s[1], center_z(s, z)]).collect();
     xyz.extend(picked.iter().map(|&k| {
         let p = &points[pool[k]];
-        [p[0], p[1], zval(p)]
+        [p[0], p[1], center_z(p, z)]
     }));
+    padded(xyz, n, seeds.len())
+}
+
+/// Picks `n` centers from `pool` as FPS would had it already placed `placed` (the centers of
+/// the slices before this one, say): distances start from them, so the new centers fill what
+/// they leave open instead of crowding against them. `placed` are not returned. The random
+/// sampler ignores them.
+pub fn continue_centers(
+    points: &[Point],
+    pool: &[usize],
+    n: usize,
+    sampler: Sampler,
+    placed: &[[f32; 3]],
+    z: CenterZ,
+    rng: &mut impl Rng,
+) -> Centers {
+    let picked = match sampler {
+        Sampler::Random => random_subset(pool.len(), n, rng),
+        Sampler::Fps => fps(points, pool, n, placed, rng),
+    };
+    let xyz = picked
+        .iter()
+        .map(|&k| {
+            let p = &points[pool[k]];
+            [p[0], p[1], center_z(p, z)]
+        })
+        .collect();
+    padded(xyz, n, 0)
+}
+
+/// FPS over `pool` continued from `placed` (not returned), at most `max` picks, stopping before
+/// the first pick that would lie closer than `spacing` (bird's-eye view) to a center already
+/// there: the positions, unpadded, z as [`CenterZ`] says. FPS picks ever closer to their
+/// nearest center, so the stop leaves every pool point within `spacing` of a center unless
+/// `max` ran out.
+pub fn spaced_centers(
+    points: &[Point],
+    pool: &[usize],
+    max: usize,
+    placed: &[[f32; 3]],
+    spacing: f32,
+    z: CenterZ,
+    rng: &mut impl Rng,
+) -> Vec<[f32; 3]> {
+    let picks = fps(points, pool, max, placed, rng);
+    let mut kept: Vec<[f32; 3]> = Vec::with_capacity(picks.len());
+    for &k in &picks {
+        let p = &points[pool[k]];
+        let near = |c: &[f32; 3]| (c[0] - p[0]).hypot(c[1] - p[1]) < spacing;
+        if placed.iter().chain(&kept).any(near) {
+            break;
+        }
+        kept.push([p[0], p[1], center_z(p, z)]);
+    }
+    kept
+}
+
+/// A center's z before levelling: the point's own for [`CenterZ::Point`], else 0.
+fn center_z(p: &[f32], z: CenterZ) -> f32 {
+    if z == CenterZ::Point { p[2] } else { 0.0 }
+}
+
+/// `xyz` filled to `n` centers: the slots beyond the real ones repeat them (the sensor origin
+/// when there is none) and are marked invalid.
+pub(crate) fn padded(mut xyz: Vec<[f32; 3]>, n: usize, num_seeded: usize) -> Centers {
     let mut valid = vec![true; xyz.len()];
     let real = xyz.len();
     for i in real..n {
-        // Repeat earlier centers; with no center at all, use the sensor origin.
         xyz.push(if real > 0 { xyz[i % real] } else { [0.0; 3] });
         valid.push(false);
     }
-    Centers {
-        xyz,
-        valid,
-        num_seeded: seeds.len(),
-    }
+    Centers { xyz, valid, num_seeded }
 }
 
 /// Lifts [`CenterZ::Ground`] centers by the ground's rise under each, so that they sit as high
@@ -207,6 +266,27 @@ mod tests {
         sorted.sort();
         sorted.dedup();
         assert_eq!(sorted.len(), 100, "all 100 pool points, none twice");
+    }
+
+    #[test]
+    fn continued_fps_fills_what_the_placed_centers_leave_open() {
+        // A line of points along x from 0 to 40 m; centers already placed at 0 and 20 m.
+        let pts: Vec<Point> = (0..=400).map(|i| [i as f32 * 0.1, 0.0, 0.0, 0.0]).collect();
+        let pool: Vec<usize> = (0..pts.len()).collect();
+        let placed = [[0.0, 0.0, 0.0], [20.0, 0.0, 0.0]];
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let c = continue_centers(&pts, &pool, 3, Sampler::Fps, &placed, CenterZ::Point, &mut rng);
+        // Hand-computed: 40 m (20 from the nearest), then 10 m and 30 m (10 from the nearest;
+        // ties go to the lower pool index).
+        let xs: Vec<f32> = c.xyz.iter().map(|p| p[0]).collect();
+        assert_eq!(xs.len(), 3);
+        for (x, want) in xs.iter().zip([40.0, 10.0, 30.0]) {
+            assert!((x - want).abs() < 1e-4, "{xs:?}");
+        }
+        assert_eq!(c.num_seeded, 0, "the placed centers are not returned");
+        // More centers than pool points: the rest are invalid repeats.
+        let few = continue_centers(&pts[..2], &[0, 1], 4, Sampler::Fps, &placed, CenterZ::Zero, &mut rng);
+        assert_eq!(few.valid, [true, true, false, false]);
     }
 
     #[test]

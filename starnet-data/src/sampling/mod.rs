@@ -3,6 +3,7 @@
 //! azimuth slices of a streaming sweep.
 
 mod anchors;
+mod arrival;
 mod centers;
 mod coverage;
 mod fps;
@@ -13,12 +14,15 @@ mod slices;
 mod target;
 
 pub use anchors::{AnchorGrid, AnchorPrior};
-pub use centers::{CenterZ, Centers, Sampler, level_centers, sample_centers};
+pub use centers::{CenterZ, Centers, Sampler, continue_centers, level_centers, sample_centers};
 pub use coverage::{CoverageConfig, CoverageTable, coverage};
 // The metric and the grid are geometry's; re-exported here beside the gathering that uses them.
 pub use crate::geometry::{GatherMetric, SpatialGrid};
+pub use arrival::distance_to_undelivered;
 pub use gather::{GatherConfig, NUM_FEATURES, Neighbourhoods, ReflectanceInput, gather, gather_with_grid};
 pub use pool::{CenterPoolConfig, center_pool, z_band_from_labels};
 pub use prepare::{Augmentation, PipelineConfig, PreparedFrame, prepare_frame};
-pub use slices::{SliceConfig, centers_per_slice, prepare_slice, prepare_sweep, slice_points, slice_rng};
+pub use slices::{
+    SliceCenters, SliceConfig, SliceContext, SweepSlicer, centers_per_slice, prepare_sweep, slice_points, slice_rng,
+};
 pub use target::CenterTarget;

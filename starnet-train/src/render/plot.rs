@@ -38,13 +38,21 @@ pub struct LinePlot {
     pub y_range: Option<(f64, f64)>,
 }
 
-const PALETTE: [Rgb; 6] = [
+/// Matplotlib's tab10 and two light tints: twelve series (three models × three NMS modes,
+/// say) each in a colour of its own.
+const PALETTE: [Rgb; 12] = [
     [31, 119, 180],
     [255, 127, 14],
     [44, 160, 44],
     [214, 39, 40],
     [148, 103, 189],
     [140, 86, 75],
+    [227, 119, 194],
+    [127, 127, 127],
+    [188, 189, 34],
+    [23, 190, 207],
+    [174, 199, 232],
+    [255, 187, 120],
 ];
 const INK: RGBColor = RGBColor(30, 30, 30);
 const W: usize = 960;
@@ -275,6 +283,26 @@ mod tests {
         // The names are written in the legend strip, not over the data.
         let ink = |x: i64, y: i64| c.get(x, y).is_some_and(|[r, g, b]| r < 90 && g < 90 && b < 90);
         assert!((legend_x..W as i64).any(|x| (40..120).any(|y| ink(x, y))));
+    }
+
+    #[test]
+    fn twelve_series_are_drawn_in_twelve_colours() {
+        let names: Vec<String> = (0..12).map(|k| format!("s{k}")).collect();
+        let p = plot(&names.iter().map(String::as_str).collect::<Vec<_>>());
+        let c = p.render().unwrap();
+        for (k, rgb) in PALETTE.iter().enumerate() {
+            assert!(!pixels_of(&c, *rgb).is_empty(), "series {k} is drawn");
+            // Far enough from every other (and from the ink) to tell apart.
+            let far = |o: &Rgb| {
+                rgb.iter()
+                    .zip(o)
+                    .map(|(a, b)| (*a as i32 - *b as i32).abs())
+                    .sum::<i32>()
+                    > 60
+            };
+            assert!(PALETTE.iter().enumerate().all(|(j, o)| j == k || far(o)), "colour {k}");
+            assert!(far(&[30, 30, 30]), "colour {k} against the ink");
+        }
     }
 
     #[test]

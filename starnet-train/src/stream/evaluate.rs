@@ -8,7 +8,7 @@ use crate::Result;
 use serde::{Deserialize, Serialize};
 use starnet_data::events::Task;
 use starnet_data::kitti::{KittiDataset, LabelSource};
-use starnet_data::sampling::{CenterTarget, centers_per_slice};
+use starnet_data::sampling::CenterTarget;
 use starnet_data::seed::sub_seed;
 use starnet_data::summary::{mean, quantile};
 use starnet_eval::metrics::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, ap_by_angle, waymo_ap};
@@ -37,8 +37,12 @@ pub struct StreamReport {
     pub lstm: bool,
     /// Centers per sweep (spread over the slices).
     pub num_centers: usize,
-    /// Centers per slice.
+    /// Centers per slice: a step's capacity (its peak compute).
     pub centers_per_slice: usize,
+    /// Mean steps per sweep: n, and more where a spaced last slice needs further steps (absent
+    /// from reports written before it existed).
+    #[serde(default)]
+    pub steps_per_sweep: f64,
     /// Points per center.
     pub num_points: usize,
     /// Forward GFLOP of one slice: the peak compute.
@@ -147,9 +151,10 @@ impl std::fmt::Display for StreamReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "n = {} ({} sweeps, {} x {} points per slice, {:.3} GFLOP = {:.3} of a sweep; slice {:.1} ms median, sweep {:.1} ms):",
+            "n = {} ({} sweeps, {:.2} steps each, {} x {} points per step, {:.3} GFLOP = {:.3} of a sweep; step {:.1} ms median, sweep {:.1} ms):",
             self.slices,
             self.frames,
+            self.steps_per_sweep,
             self.centers_per_slice,
             self.num_points,
             self.gflop_per_slice,
@@ -182,12 +187,14 @@ pub fn evaluate_stream(
     let mut frames: [Vec<WaymoFrame>; 3] = Default::default();
     let mut slice_ms = Vec::new();
     let mut sweep_ms = Vec::new();
+    let mut steps = Vec::new();
     let task = Task::begin(&format!("stream {n} slices"), gt.frames.len() as u64);
     for (i, (id, objects)) in gt.frames.iter().enumerate() {
         task.inc(1);
         let frame = dataset.load(id)?;
         let streamed = stream_sweep(m, &frame.points, n, sub_seed(m.seed, 23, i as u64));
         sweep_ms.push(streamed.slice_ms.iter().sum::<f64>());
+        steps.push(streamed.slice_ms.len() as f64);
         slice_ms.extend_from_slice(&streamed.slice_ms);
         for (k, mode) in NmsMode::ALL.iter().enumerate() {
             let detections = streamed
@@ -209,7 +216,7 @@ pub fn evaluate_stream(
     }
     drop(task);
     let budget = m.detector.budget();
-    let per = centers_per_slice(budget.num_centers, n);
+    let per = m.stream.slicing.step_capacity(budget.num_centers, n);
     let gflop = forward_gflop(&m.detector.network, per, budget.num_points);
     let full = forward_gflop(&m.detector.network, budget.num_centers, budget.num_points);
     Ok(StreamReport {
@@ -218,6 +225,7 @@ pub fn evaluate_stream(
         lstm: m.detector.model.has_lstm(),
         num_centers: budget.num_centers,
         centers_per_slice: per,
+        steps_per_sweep: mean(&steps),
         num_points: budget.num_points,
         gflop_per_slice: gflop,
         peak_fraction: gflop / full,

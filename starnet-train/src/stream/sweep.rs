@@ -3,9 +3,9 @@
 
 use super::model::StreamModel;
 use serde::{Deserialize, Serialize};
-use starnet_data::sampling::{SliceConfig, centers_per_slice, prepare_slice, slice_points, slice_rng};
+use starnet_data::sampling::{AnchorGrid, SliceConfig, SliceContext, SweepSlicer, slice_rng};
 use starnet_data::{Box3d, Point};
-use starnet_model::nms::{Detection, Emission, StatefulNms, nms};
+use starnet_model::nms::{DeferredNms, Detection, Emission, StatefulNms, nms};
 use std::time::Instant;
 
 /// How the detections of a sweep's slices are merged.
@@ -43,9 +43,10 @@ pub struct StreamedSweep {
     pub stateful: Vec<Detection>,
     /// Global NMS over the sweep.
     pub global: Vec<Detection>,
-    /// Per slice, its boxes after NMS within the slice (what it emits before stateful NMS).
+    /// Per step (the n slices, then any further steps of a spaced last slice), its boxes after
+    /// NMS within the step (what it emits before stateful NMS).
     pub per_slice: Vec<Vec<Detection>>,
-    /// Per slice, ms from its delivered points to its final boxes: center sampling, gathering,
+    /// Per step, ms from its delivered points to its final boxes: center sampling, gathering,
     /// forward, decoding and stateful NMS.
     pub slice_ms: Vec<f64>,
 }
@@ -62,17 +63,18 @@ impl StreamedSweep {
 }
 
 /// Detects on one sweep cut into `n` slices, one slice at a time as the sensor would deliver
-/// them: each slice is prepared from its own points (and the previous slice's when
-/// `stream.slicing.gather_previous`), run through the model with the LSTM state of the
+/// them: each slice is prepared by a [`SweepSlicer`] from what has been delivered (as
+/// `stream.slicing.context` allows), run through the model with the LSTM state of the
 /// sweep's earlier slices (fresh at the sweep's start), decoded and passed through stateful
 /// NMS; the detector's centers are spread over the slices. Slice `s` draws from
 /// [`slice_rng`]`(seed, s)`, so nothing of a later slice reaches it.
 pub fn stream_sweep(m: &StreamModel, points: &[Point], n: usize, seed: u64) -> StreamedSweep {
     let (detector, stream) = (&m.detector, &m.stream);
-    let per = centers_per_slice(detector.pipeline.num_centers, n);
     // What the sensor delivers; cutting is the sensor's work, not the detector's, so untimed.
-    let slices = slice_points(points, n, &stream.slicing);
+    let mut slicer = SweepSlicer::new(points, n, &stream.slicing, &detector.pipeline);
     let mut stateful = StatefulNms::new(stream.nms_memory, stream.nms_precedence);
+    let mut deferred = DeferredNms::new();
+    let lag = settling_lag(&detector.anchors, detector.pipeline.gather.radius, &stream.slicing);
     let mut state = None;
     let mut out = StreamedSweep {
         localized: Vec::new(),
@@ -82,27 +84,24 @@ pub fn stream_sweep(m: &StreamModel, points: &[Point], n: usize, seed: u64) -> S
         slice_ms: Vec::with_capacity(n),
     };
     let mut raw_all = Vec::new();
-    for s in 0..n {
+    for s in 0.. {
         let start = Instant::now();
-        let previous = (stream.slicing.gather_previous && s > 0).then(|| slices[s - 1].as_slice());
-        let prepared = prepare_slice(
-            "",
-            &slices[s],
-            previous,
-            (&[], &[]),
-            &detector.pipeline,
-            per,
-            &mut slice_rng(seed, s),
-        );
+        let Some(prepared) = slicer.next_slice("", (&[], &[]), detector.pipeline.num_centers, &mut slice_rng(seed, s))
+        else {
+            break;
+        };
+        // A step after the n slices belongs to the last (the sweep is complete); while further
+        // steps follow, nothing of the last slice is settled, for their centers lie anywhere in it.
+        let (s, last, more) = (s.min(n - 1), slicer.is_finished(), s + 1 >= n);
         let slice = detector.detect_slice(&prepared, state);
         state = slice.state;
+        let settled = |d: &Detection| !more && reaches_no_later_slice(&d.b, s, n, &stream.slicing, lag);
         out.stateful.extend(match stream.nms_emission {
-            _ if s + 1 == n => stateful.step_last(&slice.raw, &detector.nms),
+            Emission::Deferred if last => deferred.finish(&slice.raw, &detector.nms),
+            Emission::Deferred => deferred.step(&slice.raw, &detector.nms, &settled),
+            _ if last => stateful.step_last(&slice.raw, &detector.nms),
             Emission::Immediate => stateful.step(&slice.raw, &detector.nms),
-            Emission::Settled => {
-                let settled = |d: &Detection| reaches_no_later_slice(&d.b, s, n, &stream.slicing);
-                stateful.step_holding(&slice.raw, &detector.nms, &settled)
-            }
+            Emission::Settled => stateful.step_holding(&slice.raw, &detector.nms, &settled),
         });
         out.slice_ms.push(start.elapsed().as_secs_f64() * 1e3);
         let local = nms(&slice.raw, &detector.nms);
@@ -114,14 +113,25 @@ pub fn stream_sweep(m: &StreamModel, points: &[Point], n: usize, seed: u64) -> S
     out
 }
 
-/// Whether no box of a slice after `s` (of `n`) can overlap `b`: its footprint grown by half
-/// its length (how far a later slice's box reaches back across the border) lies in slices up to
-/// `s`. Past the sweep's start (slice 0 seen from the last slices) counts as later.
-fn reaches_no_later_slice(b: &Box3d, s: usize, n: usize, slicing: &SliceConfig) -> bool {
-    b.grown(b.dx.max(b.dy) / 2.0)
-        .corners_bev()
-        .iter()
-        .all(|c| slicing.slice_of(c[0], c[1], n) <= s)
+/// How far from what is still to come a box (grown by half its length) must lie before no
+/// later box can overlap it: for centers that lag the laser ([`SliceConfig::lag`]), that lag
+/// plus the farthest anchor offset (where a center's boxes start), diagonally; else nothing.
+fn settling_lag(anchors: &AnchorGrid, radius: f32, slicing: &SliceConfig) -> f32 {
+    match slicing.context {
+        SliceContext::Arrived => slicing.lag(radius) + anchors.extent * std::f32::consts::SQRT_2,
+        SliceContext::Own | SliceContext::Previous => 0.0,
+    }
+}
+
+/// Whether no box of a step after slice `s` (of `n`) can overlap `b`: its footprint grown by
+/// half its length (how far a later box reaches back across the border) lies in slices up to
+/// `s`, and at least `lag` (how far centers wait behind the laser) from what is still to come.
+/// Past the sweep's start (slice 0 seen from the last slices) counts as to come.
+fn reaches_no_later_slice(b: &Box3d, s: usize, n: usize, slicing: &SliceConfig, lag: f32) -> bool {
+    b.grown(b.dx.max(b.dy) / 2.0).corners_bev().iter().all(|c| {
+        let d = slicing.distance_to_undelivered(c[0], c[1], s, n);
+        d > 0.0 && d >= lag
+    })
 }
 
 #[cfg(test)]
@@ -129,7 +139,7 @@ mod tests {
     use super::*;
     use crate::budget::Budget;
     use crate::config::ExperimentConfig;
-    use starnet_data::sampling::{CenterPoolConfig, CenterTarget};
+    use starnet_data::sampling::{CenterPoolConfig, CenterTarget, SliceCenters};
 
     fn sweep(n: usize) -> Vec<Point> {
         (0..n)
@@ -164,13 +174,17 @@ mod tests {
         };
         let car = |x: f32, y: f32| Box3d::new(x, y, -1.0, 4.0, 1.6, 1.5, 0.0);
         // At 45° and 20 m, grown by 2 m: inside slice 0.
-        assert!(reaches_no_later_slice(&car(14.0, 14.0), 0, 4, &slicing));
+        assert!(reaches_no_later_slice(&car(14.0, 14.0), 0, 4, &slicing, 0.0));
+        // Centers that wait behind the laser: the grown footprint (x 10–18, y 11.2–16.8) lies
+        // 10 m from the nearest ray of what is to come (the +y axis).
+        assert!(reaches_no_later_slice(&car(14.0, 14.0), 0, 4, &slicing, 9.9));
+        assert!(!reaches_no_later_slice(&car(14.0, 14.0), 0, 4, &slicing, 10.1));
         // Near the border with slice 1 (the +y axis): it waits, until slice 1 is done.
-        assert!(!reaches_no_later_slice(&car(2.0, 20.0), 0, 4, &slicing));
-        assert!(reaches_no_later_slice(&car(2.0, 20.0), 1, 4, &slicing));
+        assert!(!reaches_no_later_slice(&car(2.0, 20.0), 0, 4, &slicing, 0.0));
+        assert!(reaches_no_later_slice(&car(2.0, 20.0), 1, 4, &slicing, 0.0));
         // Just past the sweep's start (slice 0 near the +x axis, reaching back below it): the
         // last slice lies behind the start, so it is not settled before then.
-        assert!(!reaches_no_later_slice(&car(20.0, 1.0), 0, 4, &slicing));
+        assert!(!reaches_no_later_slice(&car(20.0, 1.0), 0, 4, &slicing, 0.0));
     }
 
     #[test]
@@ -182,10 +196,11 @@ mod tests {
             num_points: 8,
             target: CenterTarget::All,
         };
-        for gather_previous in [false, true] {
+        for context in [SliceContext::Own, SliceContext::Previous, SliceContext::Arrived] {
             let mut cfg = cfg.clone();
             cfg.stream.slicing = SliceConfig {
-                gather_previous,
+                context,
+                centers: SliceCenters::Continued,
                 ..SliceConfig::default()
             };
             let m = StreamModel::new("m".into(), model.clone(), &cfg, budget);

@@ -3,6 +3,9 @@
 //! which also suppresses against the boxes kept in the previous k slices of a sweep. Optionally each kept
 //! box is then refined by box voting ([`vote`]; not in the paper, off by default).
 
+mod deferred;
+
+pub use deferred::DeferredNms;
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
 use starnet_data::geometry::{iou_3d, wrap_angle};
@@ -144,6 +147,12 @@ pub enum Emission {
     /// `settled` says which) waits for that slice and is decided with its candidates, as global
     /// NMS would decide it; the others at once. Costs the waiting boxes one slice of latency.
     Settled,
+    /// Global NMS, streamed ([`DeferredNms`]): every candidate waits, however many slices it
+    /// takes, until no later box can overlap the box NMS keeps for it; then that box is
+    /// emitted, voted with its candidates, as global NMS over the sweep would. For centers that
+    /// lag the laser ([`Self::Settled`] decides after one slice). Ignores the memory and the
+    /// precedence.
+    Deferred,
 }
 
 /// What stateful NMS remembers of one slice.
