@@ -405,13 +405,20 @@ def to_undelivered(points, slicing, delivered):
     return np.where(along >= delivered, 0.0, d)
 
 
+def slicing_context(slicing):
+    """The slice context; contracts exported before issue #51 spell it gather_previous."""
+    if "context" in slicing:
+        return slicing["context"]
+    return "previous" if slicing["gather_previous"] else "own"
+
+
 def slice_views(points, n, slicing, radius):
     """Per slice, in order: the points it reads and which of them may hold a center, as
     starnet_data::sampling::SweepSlicer for the contexts own, previous and arrived."""
     which = slice_of(points, n, slicing)
     for s in range(n):
         current = points[which == s]
-        context = slicing["context"]
+        context = slicing_context(slicing)
         if context == "own" or (context == "previous" and s == 0):
             yield current, np.ones(len(current), bool)
         elif context == "previous":
@@ -436,7 +443,7 @@ def detect_streaming(session, spec, points, n, rng):
     state = {"state_h": np.zeros((1, h), np.float32), "state_c": np.zeros((1, h), np.float32)}
     per = max(1, -(-spec["num_centers"] // n))
     pool_cfg = dict(spec["center_pool"], camera_frustum=False)  # a slice's pool has no frustum
-    spaced = slicing["centers"] == "spaced" and n > 1
+    spaced = slicing.get("centers", "fresh") == "spaced" and n > 1
     if spaced:
         per = math.ceil(per * slicing["peak"])
     all_boxes, all_scores, used, placed = [], [], 0, np.zeros((0, 3), np.float32)
@@ -451,7 +458,7 @@ def detect_streaming(session, spec, points, n, rng):
         if spaced:
             most = len(pool) if s + 1 == n else per
             chosen = pool[spaced_picks(xy, most, placed, slicing["spacing"], rng)]
-        elif slicing["centers"] == "continued":
+        elif slicing.get("centers", "fresh") == "continued":
             chosen = pool[fps_bev(xy, per, rng, placed)]
         else:
             chosen = pool[fps_bev(xy, per, rng)]

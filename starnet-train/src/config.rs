@@ -6,6 +6,9 @@
 //! [`ExperimentConfig::default`], which documents every key. A key the defaults do not have, or
 //! a value of the wrong type, is an error naming the key and the file. The resolved config is
 //! written beside every run.
+//!
+//! Keys a release renamed are read in their old spelling too ([`RENAMED`]), so the resolved
+//! configs of older runs and the configs inside older exports still load.
 
 use crate::{Result, TrainError};
 use serde::{Deserialize, Serialize};
@@ -667,9 +670,68 @@ pub fn parse_config(text: &str, origin: &Path, sets: &[String]) -> Result<Experi
     resolve(user, sets, origin)
 }
 
+/// A key an earlier release spelled otherwise: the table holding it, its old leaf name, and how
+/// an old value reads in the new spelling.
+pub struct RenamedKey {
+    /// The dotted path of the table holding the key, e.g. `stream.slicing`.
+    pub table: &'static str,
+    /// The key's old name in that table.
+    pub old: &'static str,
+    /// The key's new name in that table.
+    pub new: &'static str,
+    /// The new value for an old one; `None` for an old value that was never valid.
+    pub translate: fn(&Value) -> Option<Value>,
+}
+
+/// Every renamed key. `stream.slicing.gather_previous` (a bool, until issue #51) became
+/// `stream.slicing.context`: `true` reads the previous slice (`"previous"`), `false` only the
+/// slice's own points (`"own"`).
+pub const RENAMED: &[RenamedKey] = &[RenamedKey {
+    table: "stream.slicing",
+    old: "gather_previous",
+    new: "context",
+    translate: |v| {
+        v.as_bool()
+            .map(|b| Value::String(if b { "previous" } else { "own" }.into()))
+    },
+}];
+
+/// `user` with every old spelling of [`RENAMED`] replaced by the new one. Both spellings at once,
+/// or an old value that was never valid, is an error naming the old key.
+fn upgrade_renamed(user: &mut Table, file: &Path) -> Result<()> {
+    for rename in RENAMED {
+        let Some(table) = table_at_mut(user, rename.table) else {
+            continue;
+        };
+        let Some(old) = table.remove(rename.old) else {
+            continue;
+        };
+        let key = format!("{}.{}", rename.table, rename.old);
+        let error = |message: String| TrainError::Config {
+            file: file.into(),
+            key: key.clone(),
+            message,
+        };
+        if table.contains_key(rename.new) {
+            return Err(error(format!("renamed to {}; give only the new key", rename.new)));
+        }
+        let new = (rename.translate)(&old)
+            .ok_or_else(|| error(format!("renamed to {}; {old} has no meaning there", rename.new)))?;
+        table.insert(rename.new.into(), new);
+    }
+    Ok(())
+}
+
+/// The table at the dotted `path` inside `root`, if every step of it is a table.
+fn table_at_mut<'a>(root: &'a mut Table, path: &str) -> Option<&'a mut Table> {
+    path.split('.')
+        .try_fold(root, |at, part| at.get_mut(part)?.as_table_mut())
+}
+
 /// `user` with `sets` applied, key-checked and merged over the defaults, validated.
 fn resolve(mut user: Table, sets: &[String], path: &Path) -> Result<ExperimentConfig> {
     apply_sets(&mut user, sets)?;
+    upgrade_renamed(&mut user, path)?;
     let mut defaults = Table::try_from(ExperimentConfig::default()).expect("the defaults serialise");
     let schema = with_optional_tables(&defaults);
     check_keys(&user, &schema, "", path)?;
@@ -808,6 +870,40 @@ mod tests {
             c.model,
             ExperimentConfig::default().model,
             "untouched sections keep their defaults"
+        );
+    }
+
+    #[test]
+    fn a_renamed_key_reads_in_its_old_spelling() {
+        use starnet_data::sampling::SliceContext;
+        let dir = tempfile::tempdir().unwrap();
+        for (old, want) in [(true, SliceContext::Previous), (false, SliceContext::Own)] {
+            let p = write(
+                dir.path(),
+                "old.toml",
+                &format!("[stream.slicing]\ngather_previous = {old}\n"),
+            );
+            assert_eq!(load_config(&p, &[]).unwrap().stream.slicing.context, want);
+            let set = format!("stream.slicing.gather_previous={old}");
+            let text = parse_config("", Path::new("model.safetensors"), &[set]).unwrap();
+            assert_eq!(text.stream.slicing.context, want, "--set and embedded configs alike");
+        }
+        let both = "[stream.slicing]\ngather_previous = true\ncontext = \"own\"\n";
+        let e = load_config(&write(dir.path(), "both.toml", both), &[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("both.toml") && e.contains("stream.slicing.gather_previous"),
+            "{e}"
+        );
+        assert!(e.contains("renamed to context"), "{e}");
+        let odd = "[stream.slicing]\ngather_previous = 3\n";
+        let e = load_config(&write(dir.path(), "odd.toml", odd), &[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("stream.slicing.gather_previous") && e.contains("3 has no meaning"),
+            "{e}"
         );
     }
 
