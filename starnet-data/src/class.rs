@@ -48,6 +48,16 @@ impl ObjectClass {
         }
     }
 
+    /// The class the KITTI devkit treats as this one's neighbour (Van for Car, Person_sitting
+    /// for Pedestrian): its objects are neither found nor missed when this class is scored.
+    pub fn neighbour(self) -> Option<Self> {
+        match self {
+            Self::Car => Some(Self::Van),
+            Self::Pedestrian => Some(Self::PersonSitting),
+            _ => None,
+        }
+    }
+
     /// Parses a label-file name; `None` for anything KITTI does not define.
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|c| c.as_str() == name)

@@ -45,6 +45,14 @@ pub enum DataError {
         /// The limit, metres.
         limit: f32,
     },
+    /// A read-only root without a paste database, and no cache folder to build one in.
+    #[error(
+        "{root} is read-only and holds no paste database, and no cache folder is known to build one in: set STARNET_CACHE_DIR (or HOME)"
+    )]
+    NoCacheDir {
+        /// The dataset root.
+        root: PathBuf,
+    },
     /// A point with a NaN or infinite coordinate.
     #[error("{path}: point {index} has a non-finite {field} ({value})")]
     NonFinitePoint {

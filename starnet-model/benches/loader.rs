@@ -45,11 +45,7 @@ fn main() {
     };
     let augment = AugmentConfig::default();
     let (grid, classes) = (AnchorGrid::kitti_car(), [ObjectClass::Car]);
-    let assign = AssignConfig {
-        fg_iou: 0.567,
-        bg_iou: 1.0,
-        force_match: true,
-    };
+    let assign = AssignConfig::kitti_car();
     let (mut load, mut augment_only, mut prepare, mut targets) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (k, id) in frames.iter().cycle().take(5 * frames.len()).enumerate() {
         let t = Instant::now();

@@ -4,6 +4,12 @@
 //! object that no anchor reached is then force-matched to its best anchor, if that IoU is above 0
 //! and the anchor is not already foreground for another object.
 //!
+//! Objects of a target class's neighbour (Van for Car, Person_sitting for Pedestrian) are
+//! background by default, as lingvo and OpenPCDet train (labels filtered to the target
+//! classes); [`NeighbourRule::Ignored`] leaves the anchors on them out of the classification
+//! loss instead, as the KITTI devkit neither counts nor misses them. DontCare regions carry no
+//! 3D box and take no part, as in both.
+//!
 //! Weights follow the authors' normalisation: each anchor counts `1 / (C · max(1, n_fg))`, where
 //! `n_fg` is the number of foreground anchors at its center, so every center weighs the same.
 
@@ -23,6 +29,21 @@ pub struct AssignConfig {
     pub bg_iou: f32,
     /// Force-match objects that got no foreground anchor.
     pub force_match: bool,
+    /// What the anchors on a neighbour class's objects learn: `background` (lingvo, OpenPCDet)
+    /// or `ignored` (no classification weight, as the devkit scores them).
+    pub neighbours: NeighbourRule,
+}
+
+/// What training makes of the objects of a target class's neighbour
+/// ([`ObjectClass::neighbour`](starnet_data::kitti::ObjectClass::neighbour)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NeighbourRule {
+    /// Background, like any other object not of a target class.
+    Background,
+    /// Neither foreground nor background: an anchor that is not foreground and overlaps a
+    /// neighbour's box at IoU ≥ the lower of the two thresholds gets no classification weight.
+    Ignored,
 }
 
 impl AssignConfig {
@@ -47,6 +68,7 @@ impl Default for AssignConfig {
             fg_iou: 0.6,
             bg_iou: 0.45,
             force_match: true,
+            neighbours: NeighbourRule::Background,
         }
     }
 }
@@ -60,6 +82,7 @@ impl AssignConfig {
             fg_iou: 0.567,
             bg_iou: 1.0,
             force_match: true,
+            neighbours: NeighbourRule::Background,
         }
     }
 }
@@ -148,6 +171,28 @@ pub fn assign_targets(
         }
     }
     out
+}
+
+/// Takes the classification weight from every anchor of `targets` that is not foreground and
+/// overlaps one of `neighbours` (boxes of a target class's neighbour) at IoU ≥ the lower of
+/// `cfg`'s thresholds: [`NeighbourRule::Ignored`]. `anchors` as for [`assign_targets`].
+pub fn ignore_neighbours(
+    targets: &mut AnchorTargets,
+    anchors: &[Box3d],
+    a: usize,
+    neighbours: &[Box3d],
+    cfg: &AssignConfig,
+) {
+    if neighbours.is_empty() {
+        return;
+    }
+    let floor = cfg.fg_iou.min(cfg.bg_iou);
+    let best = best_overlaps(anchors, a, neighbours, floor);
+    for (i, b) in best.per_anchor.iter().enumerate() {
+        if b.iou >= floor && targets.class[i].is_none() {
+            targets.cls_weight[i] = 0.0;
+        }
+    }
 }
 
 /// Each anchor's best object and each object's best anchor by rotated BEV IoU (the first on
@@ -388,5 +433,42 @@ mod tests {
         let t = assign_targets(&an, a, &[true, false], &[an[48]], &[0], &AssignConfig::default());
         assert!(t.cls_weight[a..].iter().all(|w| *w == 0.0) && t.class[a..].iter().all(Option::is_none));
         assert!(t.class[48] == Some(0));
+    }
+
+    #[test]
+    fn ignoring_a_neighbour_zeroes_only_its_background_anchors() {
+        // Two centers: a car on the first's centre anchor, a van on the second's.
+        let (an, a) = anchors(&[[10.0, 0.0, 0.0], [30.0, 0.0, 0.0]]);
+        let (car, van) = (an[48], an[a + 48]);
+        for cfg in [AssignConfig::default(), AssignConfig::kitti_car()] {
+            let plain = assign_targets(&an, a, &[true, true], &[car], &[0], &cfg);
+            let mut t = plain.clone();
+            ignore_neighbours(&mut t, &an, a, &[van], &cfg);
+            let floor = cfg.fg_iou.min(cfg.bg_iou);
+            for (i, anchor) in an.iter().enumerate() {
+                let on_van = iou_bev(anchor, &van) >= floor;
+                let want = if on_van { 0.0 } else { plain.cls_weight[i] };
+                assert_eq!(
+                    t.cls_weight[i],
+                    want,
+                    "anchor {i}, IoU with the van {}",
+                    iou_bev(anchor, &van)
+                );
+            }
+            assert!(
+                t.cls_weight[a + 48] == 0.0 && plain.cls_weight[a + 48] > 0.0,
+                "background before, ignored after"
+            );
+            assert_eq!(
+                (t.class, t.reg_weight),
+                (plain.class, plain.reg_weight),
+                "the car's targets untouched"
+            );
+        }
+        // A foreground anchor keeps its weight when a neighbour overlaps it too.
+        let mut t = assign_targets(&an, a, &[true, true], &[car], &[0], &AssignConfig::default());
+        let w = t.cls_weight[48];
+        ignore_neighbours(&mut t, &an, a, &[car], &AssignConfig::default());
+        assert_eq!(t.cls_weight[48], w);
     }
 }

@@ -1,7 +1,7 @@
 //! Prepared frames and their anchor targets → the tensors of a batch, and back from the
 //! model's outputs to detections per frame.
 
-use crate::assign::{AnchorTargets, AssignConfig, assign_targets};
+use crate::assign::{AnchorTargets, AssignConfig, NeighbourRule, assign_targets, ignore_neighbours};
 use crate::coder::{decode, with_direction};
 use crate::loss::LossTargets;
 use crate::nms::{Detection, NmsConfig, nms};
@@ -26,8 +26,9 @@ pub fn frame_anchors(frame: &PreparedFrame, grid: &AnchorGrid) -> Vec<Box3d> {
     frame.centers.xyz.iter().flat_map(|c| grid.anchors_around(*c)).collect()
 }
 
-/// Assigns a frame's targets for the model's `classes` (objects of other classes are dropped,
-/// so they count as background, as in lingvo).
+/// Assigns a frame's targets for the model's `classes`. Objects of other classes are dropped,
+/// so they count as background, as in lingvo; under [`NeighbourRule::Ignored`] the anchors on a
+/// target class's neighbour (a Van for Car) are left out of the classification loss instead.
 pub fn frame_targets(
     frame: &PreparedFrame,
     grid: &AnchorGrid,
@@ -40,14 +41,19 @@ pub fn frame_targets(
         .zip(&frame.classes)
         .filter_map(|(b, c)| classes.iter().position(|k| k == c).map(|k| (*b, k)))
         .unzip();
-    assign_targets(
-        &frame_anchors(frame, grid),
-        grid.len(),
-        &frame.centers.valid,
-        &boxes,
-        &ids,
-        cfg,
-    )
+    let anchors = frame_anchors(frame, grid);
+    let mut targets = assign_targets(&anchors, grid.len(), &frame.centers.valid, &boxes, &ids, cfg);
+    if cfg.neighbours == NeighbourRule::Ignored {
+        let neighbours: Vec<Box3d> = frame
+            .boxes
+            .iter()
+            .zip(&frame.classes)
+            .filter(|(_, c)| !classes.contains(c) && classes.iter().any(|k| k.neighbour() == Some(**c)))
+            .map(|(b, _)| *b)
+            .collect();
+        ignore_neighbours(&mut targets, &anchors, grid.len(), &neighbours, cfg);
+    }
+    targets
 }
 
 /// A tensor of `shape` that takes `values` over (no copy).
@@ -244,5 +250,48 @@ mod tests {
         let (dims, residuals) = values(b.targets.residuals);
         assert_eq!(dims, [2, 2, 2, 7]);
         assert_eq!((residuals[7], residuals[27], residuals[28]), (1.0, 3.0, 0.0));
+    }
+
+    #[test]
+    fn only_a_target_classs_neighbour_is_ignored() {
+        let grid = AnchorGrid::kitti_car();
+        let mut f = frame(0.0);
+        f.centers.xyz = vec![[10.0, 0.0, -1.0], [30.0, 0.0, -1.0]];
+        f.centers.valid = vec![true, true];
+        let anchors = frame_anchors(&f, &grid);
+        let second = grid.len() + grid.len() / 2; // the second center's middle anchor
+        f.boxes = vec![anchors[grid.len() / 2], anchors[second]];
+        let ignored = AssignConfig {
+            neighbours: NeighbourRule::Ignored,
+            ..AssignConfig::kitti_car()
+        };
+        let weight = |classes: &[ObjectClass], other: ObjectClass, cfg: &AssignConfig| {
+            let mut g = f.clone();
+            g.classes = vec![ObjectClass::Car, other];
+            frame_targets(&g, &grid, classes, cfg).cls_weight[second]
+        };
+        let car = [ObjectClass::Car];
+        assert_eq!(
+            weight(&car, ObjectClass::Van, &ignored),
+            0.0,
+            "a van, for a car detector"
+        );
+        assert!(
+            weight(&car, ObjectClass::Van, &AssignConfig::kitti_car()) > 0.0,
+            "background by default"
+        );
+        assert!(
+            weight(&car, ObjectClass::Truck, &ignored) > 0.0,
+            "a truck is no car's neighbour"
+        );
+        assert!(
+            weight(&car, ObjectClass::PersonSitting, &ignored) > 0.0,
+            "nor is a sitting person"
+        );
+        let both = [ObjectClass::Car, ObjectClass::Van];
+        assert!(
+            weight(&both, ObjectClass::Van, &ignored) > 0.0,
+            "a van is foreground for a van detector"
+        );
     }
 }

@@ -5,12 +5,14 @@
 //! first draws its parameters from the RNG it is given, then applies them to points and boxes
 //! together; [`augment`] returns what it drew.
 
+mod database_home;
 mod gtdb;
 mod near;
 mod paste;
 mod reflectance;
 mod transforms;
 
+pub use database_home::{Writability, cache_dir, database_location, writability};
 pub use gtdb::{GTDB_CAPTURE_MARGIN, GTDB_VERSION, GtDatabase, GtEntry, database_path};
 pub use paste::{DbPasteConfig, paste_from_database};
 pub use reflectance::{ReflectanceAugment, ReflectanceDraw, augment_reflectance};

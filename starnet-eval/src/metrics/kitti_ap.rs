@@ -104,10 +104,7 @@ fn clean(gt: &[KittiObject], dt: &[KittiObject], class: ObjectClass, diff: Diffi
     let gt_roles: Vec<Role> = gt
         .iter()
         .map(|g| {
-            let neighbour = matches!(
-                (class, g.class),
-                (ObjectClass::Pedestrian, ObjectClass::PersonSitting) | (ObjectClass::Car, ObjectClass::Van)
-            );
+            let neighbour = class.neighbour() == Some(g.class);
             // The devkit's height rule is strict: exactly 25 px is too small.
             let hard = g.occluded > diff.max_occlusion()
                 || g.truncated > diff.max_truncation()

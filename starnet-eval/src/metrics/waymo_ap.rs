@@ -113,15 +113,6 @@ pub fn waymo_level(num_points: u32) -> Option<usize> {
     }
 }
 
-/// The class whose objects are ignored (not false negatives, not false positives) for `class`.
-fn neighbour(class: ObjectClass) -> Option<ObjectClass> {
-    match class {
-        ObjectClass::Car => Some(ObjectClass::Van),
-        ObjectClass::Pedestrian => Some(ObjectClass::PersonSitting),
-        _ => None,
-    }
-}
-
 fn bev_range(b: &Box3d) -> f32 {
     b.x.hypot(b.y)
 }
@@ -158,7 +149,7 @@ fn frame_case(frame: &WaymoFrame, class: ObjectClass, shard: (f32, f32), iou: f3
     let zones: Vec<&Box3d> = frame
         .objects
         .iter()
-        .filter(|o| (Some(o.class) == neighbour(class) || (o.class == class && o.num_points == 0)) && in_shard(&o.b))
+        .filter(|o| (Some(o.class) == class.neighbour() || (o.class == class && o.num_points == 0)) && in_shard(&o.b))
         .map(|o| &o.b)
         .collect();
     let mut dets: Vec<&WaymoDetection> = frame

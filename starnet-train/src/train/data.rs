@@ -11,7 +11,7 @@ use crate::{Result, TrainError};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
-use starnet_data::augment::{GtDatabase, database_path};
+use starnet_data::augment::{GtDatabase, database_location};
 use starnet_data::custom::is_custom_layout;
 use starnet_data::events::{Task, note};
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
@@ -70,8 +70,9 @@ pub fn ensure_data(cfg: &ExperimentConfig) -> Result<()> {
             &|| task.inc(1),
         )?;
     }
-    let db = database_path(root, cfg.data.labels, &cfg.data.train_split);
-    if cfg.augment.db_paste.enabled && !GtDatabase::is_current(&db) {
+    if cfg.augment.db_paste.enabled
+        && !GtDatabase::is_current(&database_location(root, cfg.data.labels, &cfg.data.train_split)?)
+    {
         prepare_database(root, &cfg.data.train_split, cfg.data.labels)?;
     }
     Ok(())
@@ -99,13 +100,16 @@ pub fn slices_at(cfg: &ExperimentConfig, step: u64) -> Option<usize> {
 }
 
 /// Builds the database from `split` (normally `train`) with `labels` and writes it to
-/// [`database_path`].
+/// [`database_location`]: into the root, or into the cache for a read-only root.
 pub fn prepare_database(root: &Path, split: &str, labels: LabelSource) -> Result<GtDatabase> {
     let ds = KittiDataset::open(root, Some(split))?.with_labels(labels);
     let task = Task::begin("prepare", ds.ids().len() as u64);
     let db = GtDatabase::build(&ds, &|| task.inc(1))?;
     drop(task);
-    let path = database_path(root, labels, split);
+    let path = database_location(root, labels, split)?;
+    if let Some(folder) = path.parent() {
+        std::fs::create_dir_all(folder).map_err(|e| starnet_data::DataError::io(folder, e))?;
+    }
     db.write(&path)?;
     note(format!(
         "wrote {} ({} objects from {} frames of `{split}`)",
@@ -147,11 +151,8 @@ pub fn paste_database(cfg: &ExperimentConfig) -> Result<Option<Arc<GtDatabase>>>
     if !cfg.augment.db_paste.enabled {
         return Ok(None);
     }
-    Ok(Some(Arc::new(GtDatabase::read(&database_path(
-        &cfg.data.root,
-        cfg.data.labels,
-        &cfg.data.train_split,
-    ))?)))
+    let path = database_location(&cfg.data.root, cfg.data.labels, &cfg.data.train_split)?;
+    Ok(Some(Arc::new(GtDatabase::read(&path)?)))
 }
 
 /// Item `k` of a run (counting from its first step, `batch` items per step): a frame of

@@ -7,7 +7,9 @@ use std::path::PathBuf;
 /// Build the ground-truth database for paste augmentation from the train split:
 /// every labelled object with the points inside its box, written to ROOT/gt_database.bin
 /// (ROOT/gt_database_360.bin from the simulator's all-around labels; another split than `train`
-/// writes ROOT/gt_database.SPLIT.bin, the file a training on that split reads).
+/// writes ROOT/gt_database.SPLIT.bin, the file a training on that split reads). A read-only ROOT
+/// that holds none gets it in the cache instead: STARNET_CACHE_DIR (else $XDG_CACHE_HOME/starnet,
+/// else ~/.cache/starnet)/gt_database/NAME-HASH/, where training finds it.
 #[derive(Args)]
 pub struct Prepare {
     /// KITTI root.
