@@ -25,6 +25,6 @@ mod table;
 pub use detections::{DetectedBox, SweepDetections};
 pub use error::{EvalError, Result};
 pub use report::EvalReport;
-pub use results::{ResultFormat, read_detect_json, score_results, write_scores};
+pub use results::{FrameResults, ResultFormat, read_detect_json, score_frames, score_results, write_scores};
 pub use scorer::{RANGE_BINS_MAX_M, Scorer, Scores, as_written, to_kitti, waymo_objects};
 pub use table::Table;

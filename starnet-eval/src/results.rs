@@ -59,14 +59,18 @@ impl std::str::FromStr for ResultFormat {
     }
 }
 
-/// The detections of one frame as a result folder holds them.
-enum FrameResults {
+/// The detections of one frame, as a result folder holds them or as a caller built them.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FrameResults {
+    /// KITTI result lines (camera frame), each with its score.
     Kitti(Vec<KittiObject>),
+    /// `starnet detect`'s boxes (LiDAR frame).
     Detect(SweepDetections),
 }
 
 impl FrameResults {
-    fn read(format: ResultFormat, dir: &Path, id: &str) -> Result<Self> {
+    /// Reads frame `id`'s file of `dir` in `format`; a missing file is an error, as in the devkit.
+    pub fn read(format: ResultFormat, dir: &Path, id: &str) -> Result<Self> {
         let path = format.file(dir, id);
         if !path.is_file() {
             return Err(DataError::MissingFile {
@@ -154,20 +158,43 @@ pub fn score_results(
         None => ResultFormat::of_folder(dir, first)?,
     };
     if format == ResultFormat::Kitti && dataset.labels() != LabelSource::Camera {
-        return Err(EvalError::InvalidArgument {
-            name: dir.display().to_string(),
-            message: "KITTI result files hold camera-view boxes only; score 360° labels from `detect` JSON files"
-                .into(),
-        });
+        return Err(camera_only(dir.display().to_string()));
     }
     let results = ids
         .iter()
         .map(|id| FrameResults::read(format, dir, id))
         .collect::<Result<Vec<_>>>()?;
+    score_frames(dataset, results, classes).map_err(|e| match e {
+        EvalError::NoInput { what, .. } => EvalError::NoInput {
+            dir: dir.to_path_buf(),
+            what,
+        },
+        other => other,
+    })
+}
+
+/// Scores `results`, one per frame of `dataset`'s split in its order, as [`score_results`]
+/// scores a folder: for results held in memory (the Python package's arrays).
+pub fn score_frames(
+    dataset: &KittiDataset,
+    results: Vec<FrameResults>,
+    classes: Option<&[ObjectClass]>,
+) -> Result<Scores> {
+    let ids = dataset.ids();
+    if results.len() != ids.len() {
+        return Err(EvalError::InvalidArgument {
+            name: "results".into(),
+            message: format!("{} frames of results for a split of {}", results.len(), ids.len()),
+        });
+    }
+    let kitti = results.iter().any(|r| matches!(r, FrameResults::Kitti(_)));
+    if kitti && dataset.labels() != LabelSource::Camera {
+        return Err(camera_only("results".into()));
+    }
     let classes = classes.map_or_else(|| detected_classes(&results), <[_]>::to_vec);
     if classes.is_empty() {
         return Err(EvalError::NoInput {
-            dir: dir.to_path_buf(),
+            dir: dataset.root().to_path_buf(),
             what: "Car, Pedestrian or Cyclist detection (name the classes to score)".into(),
         });
     }
@@ -183,6 +210,14 @@ pub fn score_results(
     }
     drop(task);
     Ok(scorer.finish())
+}
+
+/// KITTI result lines scored against 360° labels.
+fn camera_only(name: String) -> EvalError {
+    EvalError::InvalidArgument {
+        name,
+        message: "KITTI result files hold camera-view boxes only; score 360° labels from `detect` JSON files".into(),
+    }
 }
 
 /// A sweep's boxes of `classes` as detections whose class indexes `classes`.

@@ -13,6 +13,30 @@ pub struct PointCloud {
     pub intensity: Intensity,
 }
 
+impl PointCloud {
+    /// A cloud from rows held in memory, `width` values each: `[x, y, z]` (3, no intensity) or
+    /// `[x, y, z, intensity]` (4), checked by the rule every reader applies (a NaN coordinate
+    /// drops the row; any other non-finite value is an error naming `source` and the row).
+    pub fn from_rows(values: &[f32], width: usize, source: &Path) -> Result<Self> {
+        let intensity = match width {
+            3 => Intensity::Absent,
+            4 => Intensity::Measured,
+            _ => {
+                return Err(DataError::CloudHeader {
+                    path: source.into(),
+                    message: format!("rows of {width} values; a cloud has 3 (x, y, z) or 4 (x, y, z, intensity)"),
+                });
+            }
+        };
+        let mut points = Vec::with_capacity(values.len() / width);
+        for (index, row) in values.chunks_exact(width).enumerate() {
+            let xyz = [row[0], row[1], row[2]];
+            points.extend(checked_point(xyz, row.get(3).copied(), index, source)?);
+        }
+        Ok(Self { points, intensity })
+    }
+}
+
 /// Whether a cloud's 4th value is a measurement.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Intensity {
@@ -154,5 +178,35 @@ mod tests {
             "{err:?}"
         );
         assert!(err.to_string().contains("a.ply"), "{err}");
+    }
+
+    #[test]
+    fn rows_become_a_cloud_by_the_readers_rule() {
+        let p = Path::new("array");
+        let xyz = PointCloud::from_rows(&[1.0, 2.0, 3.0, f32::NAN, 0.0, 0.0, 4.0, 5.0, 6.0], 3, p).unwrap();
+        assert_eq!(xyz.intensity, Intensity::Absent);
+        assert_eq!(xyz.points, vec![[1.0, 2.0, 3.0, 0.0], [4.0, 5.0, 6.0, 0.0]]);
+        let xyzi = PointCloud::from_rows(&[1.0, 2.0, 3.0, 0.25], 4, p).unwrap();
+        assert_eq!(
+            (xyzi.intensity, xyzi.points),
+            (Intensity::Measured, vec![[1.0, 2.0, 3.0, 0.25]])
+        );
+        let err = PointCloud::from_rows(&[1.0, 2.0, 3.0, 0.5, 1.0, f32::INFINITY, 3.0, 0.5], 4, p).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                DataError::NonFinitePoint {
+                    index: 1,
+                    field: "y",
+                    ..
+                }
+            ),
+            "{err:?}"
+        );
+        let err = PointCloud::from_rows(&[0.0; 10], 5, p).unwrap_err();
+        assert!(
+            err.to_string().contains("array") && err.to_string().contains("5 values"),
+            "{err}"
+        );
     }
 }
