@@ -1,7 +1,7 @@
 //! Point clouds between files, numpy and the library.
 
 use crate::errors::to_py;
-use numpy::{PyArray2, PyReadonlyArray2};
+use numpy::{PyArray2, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use starnet_data::cloud::{Intensity, PointCloud};
@@ -25,17 +25,23 @@ pub fn read_cloud<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, Py
     PyArray2::from_vec2(py, &rows).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
-/// `points` (`[N, 3]` or `[N, 4]`, float32) as a cloud, checked as a file's points are;
-/// `source` names it in errors.
-pub fn cloud_of(points: &PyReadonlyArray2<'_, f32>, source: &Path) -> PyResult<PointCloud> {
-    let view = points.as_array();
-    let width = view.ncols();
-    if width != 3 && width != 4 {
+/// `value` (any array-like) as a C-ordered float32 numpy array of any shape.
+pub fn f32_array<'py>(value: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, f32>> {
+    let numpy = value.py().import("numpy")?;
+    let array = numpy.call_method1("ascontiguousarray", (value, "float32"))?;
+    Ok(array.cast_into::<PyArrayDyn<f32>>()?.readonly())
+}
+
+/// `points` (`[N, 3]` or `[N, 4]`, any float dtype or layout) as a cloud, checked as a file's
+/// points are; `source` names it in errors.
+pub fn cloud_of(points: &Bound<'_, PyAny>, source: &Path) -> PyResult<PointCloud> {
+    let array = f32_array(points)?;
+    let shape = array.shape().to_vec();
+    if shape.len() != 2 || (shape[1] != 3 && shape[1] != 4) {
         return Err(PyValueError::new_err(format!(
-            "points: shape {:?}; expected [N, 3] (x, y, z) or [N, 4] (x, y, z, intensity)",
-            view.shape()
+            "points: shape {shape:?}; expected [N, 3] (x, y, z) or [N, 4] (x, y, z, intensity)"
         )));
     }
-    let values: Vec<f32> = view.iter().copied().collect();
-    PointCloud::from_rows(&values, width, source).map_err(to_py)
+    let values = array.as_slice().expect("ascontiguousarray gives a contiguous array");
+    PointCloud::from_rows(values, shape[1], source).map_err(to_py)
 }

@@ -2,7 +2,7 @@
 
 use crate::cloud::cloud_of;
 use crate::errors::to_py;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
+use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use starnet_data::kitti::Calib;
@@ -96,9 +96,8 @@ impl Detector {
         id: Option<String>,
     ) -> PyResult<Detections> {
         let id = id.unwrap_or_else(|| format!("{index:06}"));
-        let array = as_f32_rows(points)?;
         let source = PathBuf::from(format!("points of sweep {id}"));
-        let cloud = cloud_of(&array, &source)?;
+        let cloud = cloud_of(points, &source)?;
         let seed = frame_seed(self.seed, index);
         let detected = py
             .detach(|| {
@@ -142,20 +141,6 @@ impl Detector {
             self.seed
         )
     }
-}
-
-/// `points` as a C-ordered float32 `[N, C]` array.
-fn as_f32_rows<'py>(points: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArray2<'py, f32>> {
-    let numpy = points.py().import("numpy")?;
-    let array = numpy.call_method1("ascontiguousarray", (points, "float32"))?;
-    let ndim: usize = array.getattr("ndim")?.extract()?;
-    if ndim != 2 {
-        let shape: Vec<usize> = array.getattr("shape")?.extract()?;
-        return Err(PyValueError::new_err(format!(
-            "points: shape {shape:?}; expected [N, 3] (x, y, z) or [N, 4] (x, y, z, intensity)"
-        )));
-    }
-    Ok(array.cast_into::<PyArray2<f32>>()?.readonly())
 }
 
 /// The detections of one sweep.

@@ -2,8 +2,8 @@
 //! from a result folder or from arrays: the figures of `starnet eval --results`, as the dict its
 //! `eval.json` holds.
 
+use crate::cloud::f32_array;
 use crate::errors::to_py;
-use numpy::{PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -125,13 +125,6 @@ fn field<'py>(given: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'py, PyAn
             .ok_or_else(|| PyValueError::new_err(format!("no key {name:?}"))),
         Err(_) => given.getattr(name),
     }
-}
-
-/// `value` as a float32 numpy array of any shape.
-fn f32_array<'py>(value: &Bound<'py, PyAny>) -> PyResult<PyReadonlyArrayDyn<'py, f32>> {
-    let numpy = value.py().import("numpy")?;
-    let array = numpy.call_method1("ascontiguousarray", (value, "float32"))?;
-    Ok(array.cast_into::<PyArrayDyn<f32>>()?.readonly())
 }
 
 fn parse_class(name: &str) -> PyResult<ObjectClass> {
