@@ -6,7 +6,7 @@ mod common;
 
 use starnet_data::kitti::{KittiDataset, KittiObject, ObjectClass, write_results};
 use starnet_eval::EvalError;
-use starnet_eval::{DetectedBox, ResultFormat, Scores, SweepDetections, score_results, to_kitti};
+use starnet_eval::{DetectedBox, ResultFormat, Scores, SweepDetections, kitti_results, score_results, to_kitti};
 use starnet_model::nms::Detection;
 use std::path::Path;
 
@@ -128,6 +128,13 @@ fn detect_json_and_kitti_lines_of_the_same_boxes_score_alike() {
     let detect = score_results(&ds, dir.path(), Some(ResultFormat::Detect), None).unwrap();
     assert_eq!(json(&kitti), json(&detect));
     assert_eq!(format!("{kitti}"), format!("{detect}"));
+    // The KITTI AP alone, from labels and calibrations (no scan read), is the same figure.
+    for format in [ResultFormat::Kitti, ResultFormat::Detect] {
+        assert_eq!(
+            kitti_results(&ds, dir.path(), Some(format), None).unwrap(),
+            kitti.classes
+        );
+    }
     // The cars moved by 0.3 m still match at 3D IoU 0.7; the pedestrian and the cyclist, moved
     // by 0.6 and 0.9 m, no longer match at 0.5.
     let level_1 = |c: ObjectClass| kitti.waymo.iter().find(|w| w.class == c).unwrap().levels[0].ap;

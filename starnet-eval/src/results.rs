@@ -148,6 +148,16 @@ pub fn score_results(
     format: Option<ResultFormat>,
     classes: Option<&[ObjectClass]>,
 ) -> Result<Scores> {
+    let results = read_folder(dataset, dir, format)?;
+    score_frames(dataset, results, classes).map_err(|e| in_folder(e, dir))
+}
+
+/// The result files in `dir` of every frame of `dataset`'s split, in its order.
+pub(crate) fn read_folder(
+    dataset: &KittiDataset,
+    dir: &Path,
+    format: Option<ResultFormat>,
+) -> Result<Vec<FrameResults>> {
     let ids = dataset.ids();
     let first = ids.first().ok_or_else(|| EvalError::NoInput {
         dir: dataset.root().to_path_buf(),
@@ -160,17 +170,18 @@ pub fn score_results(
     if format == ResultFormat::Kitti && dataset.labels() != LabelSource::Camera {
         return Err(camera_only(dir.display().to_string()));
     }
-    let results = ids
-        .iter()
-        .map(|id| FrameResults::read(format, dir, id))
-        .collect::<Result<Vec<_>>>()?;
-    score_frames(dataset, results, classes).map_err(|e| match e {
+    ids.iter().map(|id| FrameResults::read(format, dir, id)).collect()
+}
+
+/// `e`, a missing input named for the result folder rather than the dataset.
+pub(crate) fn in_folder(e: EvalError, dir: &Path) -> EvalError {
+    match e {
         EvalError::NoInput { what, .. } => EvalError::NoInput {
             dir: dir.to_path_buf(),
             what,
         },
         other => other,
-    })
+    }
 }
 
 /// Scores `results`, one per frame of `dataset`'s split in its order, as [`score_results`]
@@ -180,27 +191,10 @@ pub fn score_frames(
     results: Vec<FrameResults>,
     classes: Option<&[ObjectClass]>,
 ) -> Result<Scores> {
-    let ids = dataset.ids();
-    if results.len() != ids.len() {
-        return Err(EvalError::InvalidArgument {
-            name: "results".into(),
-            message: format!("{} frames of results for a split of {}", results.len(), ids.len()),
-        });
-    }
-    let kitti = results.iter().any(|r| matches!(r, FrameResults::Kitti(_)));
-    if kitti && dataset.labels() != LabelSource::Camera {
-        return Err(camera_only("results".into()));
-    }
-    let classes = classes.map_or_else(|| detected_classes(&results), <[_]>::to_vec);
-    if classes.is_empty() {
-        return Err(EvalError::NoInput {
-            dir: dataset.root().to_path_buf(),
-            what: "Car, Pedestrian or Cyclist detection (name the classes to score)".into(),
-        });
-    }
+    let classes = scored_classes(dataset, &results, classes)?;
     let mut scorer = Scorer::new(&classes, dataset.labels(), None);
-    let task = Task::begin("score", ids.len() as u64);
-    for (id, result) in ids.iter().zip(results) {
+    let task = Task::begin("score", results.len() as u64);
+    for (id, result) in dataset.ids().iter().zip(results) {
         let frame = dataset.load(id)?;
         match result {
             FrameResults::Kitti(objects) => scorer.add_results(frame, &objects)?,
@@ -212,8 +206,36 @@ pub fn score_frames(
     Ok(scorer.finish())
 }
 
+/// The classes to score (`classes`, else those with a detection), once `results` is checked to
+/// hold one entry per frame of the split and, for KITTI result lines, camera-view labels.
+pub(crate) fn scored_classes(
+    dataset: &KittiDataset,
+    results: &[FrameResults],
+    classes: Option<&[ObjectClass]>,
+) -> Result<Vec<ObjectClass>> {
+    let frames = dataset.ids().len();
+    if results.len() != frames {
+        return Err(EvalError::InvalidArgument {
+            name: "results".into(),
+            message: format!("{} frames of results for a split of {frames}", results.len()),
+        });
+    }
+    let kitti = results.iter().any(|r| matches!(r, FrameResults::Kitti(_)));
+    if kitti && dataset.labels() != LabelSource::Camera {
+        return Err(camera_only("results".into()));
+    }
+    let classes = classes.map_or_else(|| detected_classes(results), <[_]>::to_vec);
+    if classes.is_empty() {
+        return Err(EvalError::NoInput {
+            dir: dataset.root().to_path_buf(),
+            what: "Car, Pedestrian or Cyclist detection (name the classes to score)".into(),
+        });
+    }
+    Ok(classes)
+}
+
 /// KITTI result lines scored against 360° labels.
-fn camera_only(name: String) -> EvalError {
+pub(crate) fn camera_only(name: String) -> EvalError {
     EvalError::InvalidArgument {
         name,
         message: "KITTI result files hold camera-view boxes only; score 360° labels from `detect` JSON files".into(),
@@ -221,7 +243,7 @@ fn camera_only(name: String) -> EvalError {
 }
 
 /// A sweep's boxes of `classes` as detections whose class indexes `classes`.
-fn detections_of(sweep: &SweepDetections, classes: &[ObjectClass]) -> Vec<Detection> {
+pub(crate) fn detections_of(sweep: &SweepDetections, classes: &[ObjectClass]) -> Vec<Detection> {
     sweep
         .detections
         .iter()

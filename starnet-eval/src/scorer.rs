@@ -9,7 +9,8 @@
 
 use crate::Result;
 use crate::metrics::{
-    ClassAp, RangeAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_range, kitti_ap, waymo_ap,
+    ClassAp, KittiFrame, RangeAp, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, ap_by_range, kitti_ap,
+    waymo_ap,
 };
 use crate::table::Table;
 use serde::{Deserialize, Serialize};
@@ -150,6 +151,30 @@ pub fn as_written(o: &KittiObject) -> Result<KittiObject> {
     Ok(KittiObject::parse_line(&line, Path::new("(result line)"), 1)?)
 }
 
+/// `detections` (LiDAR frame) as the KITTI result lines that hold them: those that project
+/// into the image, as read back from their lines.
+pub(crate) fn written_results(
+    detections: &[Detection],
+    classes: &[ObjectClass],
+    calib: &Calib,
+    image: ImageSize,
+) -> Result<Vec<KittiObject>> {
+    detections
+        .iter()
+        .filter_map(|d| to_kitti(d, classes, calib, image))
+        .map(|o| as_written(&o))
+        .collect()
+}
+
+/// The result lines of `classes`: the devkit leaves the others out.
+pub(crate) fn of_classes(detections: &[KittiObject], classes: &[ObjectClass]) -> Vec<KittiObject> {
+    detections
+        .iter()
+        .filter(|o| classes.contains(&o.class))
+        .cloned()
+        .collect()
+}
+
 /// A frame's labelled objects (DontCare aside) as Waymo ground truth, with the LiDAR returns
 /// inside each box counted from the scan.
 pub fn waymo_objects(frame: &Frame) -> Vec<WaymoObject> {
@@ -170,7 +195,7 @@ pub struct Scorer<'a> {
     classes: &'a [ObjectClass],
     camera_view: bool,
     results: Option<&'a Path>,
-    frames: Vec<(Vec<KittiObject>, Vec<KittiObject>)>,
+    frames: Vec<KittiFrame>,
     calibs: Vec<Calib>,
     waymo_frames: Vec<WaymoFrame>,
 }
@@ -194,11 +219,7 @@ impl<'a> Scorer<'a> {
     /// project into the image count, as their result lines hold them.
     pub fn add(&mut self, frame: Frame, detections: &[Detection]) -> Result<()> {
         let (classes, calib, image) = (self.classes, &frame.calib, frame.image_size);
-        let written = detections
-            .iter()
-            .filter_map(|d| to_kitti(d, classes, calib, image))
-            .map(|o| as_written(&o))
-            .collect::<Result<Vec<_>>>()?;
+        let written = written_results(detections, classes, calib, image)?;
         let lidar = match self.camera_view {
             true => self.lidar_of(&written, calib),
             false => detections
@@ -216,11 +237,7 @@ impl<'a> Scorer<'a> {
     /// Adds a frame and detections read from KITTI result lines (camera frame, with scores);
     /// detections of classes not scored are left out, as the devkit leaves them.
     pub fn add_results(&mut self, frame: Frame, detections: &[KittiObject]) -> Result<()> {
-        let scored: Vec<KittiObject> = detections
-            .iter()
-            .filter(|o| self.classes.contains(&o.class))
-            .cloned()
-            .collect();
+        let scored = of_classes(detections, self.classes);
         let lidar = self.lidar_of(&scored, &frame.calib);
         self.push(frame, scored, lidar)
     }
@@ -246,7 +263,10 @@ impl<'a> Scorer<'a> {
             detections: lidar,
         });
         self.calibs.push(frame.calib.clone());
-        self.frames.push((frame.objects, kitti));
+        self.frames.push(KittiFrame {
+            labels: frame.objects,
+            detections: kitti,
+        });
         Ok(())
     }
 

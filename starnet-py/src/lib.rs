@@ -24,5 +24,7 @@ fn _starnet(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(cloud::read_cloud, m)?)?;
     m.add_function(wrap_pyfunction!(metrics::score_folder, m)?)?;
     m.add_function(wrap_pyfunction!(metrics::score_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(metrics::kitti_folder, m)?)?;
+    m.add_function(wrap_pyfunction!(metrics::kitti_arrays, m)?)?;
     Ok(())
 }

@@ -7,8 +7,11 @@ use crate::errors::to_py;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use serde::Serialize;
 use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
-use starnet_eval::{DetectedBox, FrameResults, ResultFormat, Scores, SweepDetections, score_frames, score_results};
+use starnet_eval::{
+    DetectedBox, FrameResults, ResultFormat, SweepDetections, kitti_frames, kitti_results, score_frames, score_results,
+};
 use std::collections::HashMap;
 use std::path::PathBuf;
 
@@ -26,9 +29,7 @@ pub fn score_folder<'py>(
     labels: String,
     format: Option<String>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let format = format
-        .map(|f| f.parse::<ResultFormat>().map_err(PyValueError::new_err))
-        .transpose()?;
+    let format = parse_format(format)?;
     let classes = classes.map(|c| parse_classes(&c)).transpose()?;
     let labels = parse_labels(&labels)?;
     let scores = py
@@ -38,6 +39,30 @@ pub fn score_folder<'py>(
         })
         .map_err(to_py)?;
     as_dict(py, &scores)
+}
+
+/// KITTI AP alone of the result folder `results` (as [`score_folder`] reads it) against the
+/// camera-view labels of `gt_root`'s `split`: `score_folder(...)["classes"]`, without reading
+/// the scans or computing the other metrics.
+#[pyfunction]
+#[pyo3(signature = (gt_root, results, *, split = "val".to_string(), classes = None, format = None))]
+pub fn kitti_folder<'py>(
+    py: Python<'py>,
+    gt_root: PathBuf,
+    results: PathBuf,
+    split: String,
+    classes: Option<Vec<String>>,
+    format: Option<String>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let format = parse_format(format)?;
+    let classes = classes.map(|c| parse_classes(&c)).transpose()?;
+    let aps = py
+        .detach(|| {
+            let dataset = KittiDataset::open(&gt_root, Some(&split))?;
+            kitti_results(&dataset, &results, format, classes.as_deref())
+        })
+        .map_err(to_py)?;
+    as_dict(py, &aps)
 }
 
 /// Scores `results`, a dict from every frame id of the split to that frame's detections (an
@@ -57,25 +82,51 @@ pub fn score_arrays<'py>(
     let dataset = KittiDataset::open(&gt_root, Some(&split))
         .map_err(to_py)?
         .with_labels(parse_labels(&labels)?);
-    let frames = dataset
-        .ids()
-        .iter()
-        .map(|id| frame_results(id, results.get(id)))
-        .collect::<PyResult<Vec<_>>>()?;
-    if results.len() > frames.len() {
-        let ids = dataset.ids();
-        let extra = results
-            .keys()
-            .find(|k| !ids.contains(k))
-            .expect("a key beyond the split");
-        return Err(PyValueError::new_err(format!(
-            "results: frame {extra:?} is not in split {split:?}"
-        )));
-    }
+    let frames = split_results(&dataset, &results, &split)?;
     let scores = py
         .detach(|| score_frames(&dataset, frames, classes.as_deref()))
         .map_err(to_py)?;
     as_dict(py, &scores)
+}
+
+/// KITTI AP alone of `results` (as [`score_arrays`] takes them) against the camera-view labels
+/// of `gt_root`'s `split`: `score_arrays(...)["classes"]`, without reading the scans.
+#[pyfunction]
+#[pyo3(signature = (gt_root, results, *, split = "val".to_string(), classes = None))]
+pub fn kitti_arrays<'py>(
+    py: Python<'py>,
+    gt_root: PathBuf,
+    results: HashMap<String, Bound<'py, PyAny>>,
+    split: String,
+    classes: Option<Vec<String>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let classes = classes.map(|c| parse_classes(&c)).transpose()?;
+    let dataset = KittiDataset::open(&gt_root, Some(&split)).map_err(to_py)?;
+    let frames = split_results(&dataset, &results, &split)?;
+    let aps = py
+        .detach(|| kitti_frames(&dataset, frames, classes.as_deref()))
+        .map_err(to_py)?;
+    as_dict(py, &aps)
+}
+
+/// Every frame's detections of the split, in its order; a frame missing or one outside the
+/// split is an error.
+fn split_results(
+    dataset: &KittiDataset,
+    results: &HashMap<String, Bound<'_, PyAny>>,
+    split: &str,
+) -> PyResult<Vec<FrameResults>> {
+    let ids = dataset.ids();
+    let frames = ids
+        .iter()
+        .map(|id| frame_results(id, results.get(id)))
+        .collect::<PyResult<Vec<_>>>()?;
+    match results.keys().find(|k| !ids.contains(k)) {
+        Some(extra) => Err(PyValueError::new_err(format!(
+            "results: frame {extra:?} is not in split {split:?}"
+        ))),
+        None => Ok(frames),
+    }
 }
 
 /// Frame `id`'s detections from `given`: `boxes` (`[M, 7]`, LiDAR frame), `scores` (`[M]`) and
@@ -147,8 +198,14 @@ fn parse_labels(name: &str) -> PyResult<LabelSource> {
     })
 }
 
-/// `scores` as the dict `eval.json` holds (Python's `json.loads` of the same text).
-fn as_dict<'py>(py: Python<'py>, scores: &Scores) -> PyResult<Bound<'py, PyAny>> {
+fn parse_format(format: Option<String>) -> PyResult<Option<ResultFormat>> {
+    format
+        .map(|f| f.parse::<ResultFormat>().map_err(PyValueError::new_err))
+        .transpose()
+}
+
+/// `scores` as `eval.json` holds them (Python's `json.loads` of the same text).
+fn as_dict<'py>(py: Python<'py>, scores: &impl Serialize) -> PyResult<Bound<'py, PyAny>> {
     let text = serde_json::to_string(scores).expect("scores serialise");
     py.import("json")?.call_method1("loads", (text,))
 }

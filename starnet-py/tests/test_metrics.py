@@ -36,6 +36,7 @@ def test_kitti_result_lines_score_as_the_json(scored, kitti_real_dev):
     detections, want = scored
     got = starnet.metrics.score(kitti_real_dev, detections, format="kitti")
     assert got["classes"] == want["classes"]
+    assert starnet.metrics.kitti(kitti_real_dev, detections, format="kitti") == want["classes"]
 
 
 def test_arrays_score_as_their_files(scored, kitti_real_dev):
@@ -49,6 +50,7 @@ def test_arrays_score_as_their_files(scored, kitti_real_dev):
             "classes": [d["class"] for d in sweep["detections"]],
         }
     assert starnet.metrics.score(kitti_real_dev, results) == want
+    assert starnet.metrics.kitti(kitti_real_dev, results) == want["classes"]
 
 
 def test_detector_results_score_directly(model_dir, kitti_real_dev, scored):

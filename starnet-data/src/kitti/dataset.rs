@@ -58,6 +58,19 @@ pub struct Frame {
     pub image_size: ImageSize,
 }
 
+/// A frame's labels, calibration and image size, without its scan ([`KittiDataset::load_annotations`]).
+#[derive(Debug, Clone)]
+pub struct Annotations {
+    /// Frame id, e.g. `000001`.
+    pub id: String,
+    /// Label lines (empty on the test subset), DontCare included.
+    pub objects: Vec<KittiObject>,
+    /// The frame's calibration.
+    pub calib: Calib,
+    /// Size of image 2: from the PNG header when `image_2/` has it, else 1242 × 375.
+    pub image_size: ImageSize,
+}
+
 impl Frame {
     /// The non-DontCare objects with their LiDAR boxes.
     pub fn labelled_boxes(&self) -> Vec<(&KittiObject, Box3d)> {
@@ -181,9 +194,25 @@ impl KittiDataset {
         if self.layout == Layout::Custom {
             return self.load_custom(id);
         }
-        let existing = |dir: &str, ext: &str| require_file(self.path(dir, id, ext), id);
-        let velodyne = existing("velodyne", "bin")?;
+        let velodyne = require_file(self.path("velodyne", id, "bin"), id)?;
         let points = self.tame(read_points(&velodyne)?, &velodyne)?;
+        let a = self.load_annotations(id)?;
+        Ok(Frame {
+            id: a.id,
+            points,
+            objects: a.objects,
+            calib: a.calib,
+            image_size: a.image_size,
+        })
+    }
+
+    /// A frame as [`KittiDataset::load`] reads it, without its scan: what the KITTI metrics
+    /// need. The scan need not exist.
+    pub fn load_annotations(&self, id: &str) -> Result<Annotations> {
+        if self.layout == Layout::Custom {
+            return self.custom_annotations(id);
+        }
+        let existing = |dir: &str, ext: &str| require_file(self.path(dir, id, ext), id);
         let calib = Calib::read(&existing("calib", "txt")?)?;
         let image = self.path("image_2", id, "png");
         let image_size = if image.is_file() {
@@ -210,9 +239,8 @@ impl KittiDataset {
                 .collect(),
             _ => Vec::new(),
         };
-        Ok(Frame {
+        Ok(Annotations {
             id: id.to_string(),
-            points,
             objects,
             calib,
             image_size,
@@ -224,28 +252,46 @@ impl KittiDataset {
     /// A frame of the custom layout: `points/{id}.npy` and `labels/{id}.txt`, both required.
     /// The camera-frame labels only exist for the code that reads them.
     fn load_custom(&self, id: &str) -> Result<Frame> {
-        if self.labels == LabelSource::Camera {
-            return Err(DataError::CustomLayoutLabels {
-                root: self.root.clone(),
-            });
-        }
+        self.refuse_camera_labels()?;
         let points_file = require_file(points_path(&self.root, id), id)?;
         let cloud = read_cloud(&points_file)?;
         if cloud.intensity == Intensity::Absent && self.missing_intensity == MissingIntensity::Refuse {
             return Err(DataError::MissingIntensity { path: points_file });
         }
+        let a = self.custom_annotations(id)?;
+        Ok(Frame {
+            id: a.id,
+            points: self.tame(cloud.points, &points_file)?,
+            objects: a.objects,
+            calib: a.calib,
+            image_size: a.image_size,
+        })
+    }
+
+    /// The labels of a custom-layout frame, through KITTI's calibration of frame 000000.
+    fn custom_annotations(&self, id: &str) -> Result<Annotations> {
+        self.refuse_camera_labels()?;
         let calib = Calib::kitti_000000();
         let objects = read_custom_labels(&require_file(labels_path(&self.root, id), id)?)?
             .iter()
             .map(|o| all_around_object(o, &calib))
             .collect();
-        Ok(Frame {
+        Ok(Annotations {
             id: id.to_string(),
-            points: self.tame(cloud.points, &points_file)?,
             objects,
             calib,
             image_size: ImageSize::KITTI,
         })
+    }
+
+    /// The custom layout has no camera-view labels.
+    fn refuse_camera_labels(&self) -> Result<()> {
+        match self.labels {
+            LabelSource::Camera => Err(DataError::CustomLayoutLabels {
+                root: self.root.clone(),
+            }),
+            LabelSource::AllAround => Ok(()),
+        }
     }
 }
 

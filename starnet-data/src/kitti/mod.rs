@@ -12,7 +12,7 @@ mod split;
 
 pub use calib::{Calib, KITTI_000000_CALIB, format_c_exp};
 pub use camera::{ImageSize, observation_angle};
-pub use dataset::{Frame, KittiDataset, LabelSource, Layout, MissingIntensity};
+pub use dataset::{Annotations, Frame, KittiDataset, LabelSource, Layout, MissingIntensity};
 pub use label::{
     CameraBox, Difficulty, KittiObject, NO_ALPHA, format_labels, parse_labels, read_labels, write_labels, write_results,
 };

@@ -181,11 +181,20 @@ fn overlaps(gt: &[KittiObject], dt: &[KittiObject], metric: ApMetric) -> Vec<Vec
         .collect()
 }
 
+/// One frame's ground truth and detections, as the devkit reads a label file and a result file.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct KittiFrame {
+    /// The label lines, DontCare regions and neighbouring classes included.
+    pub labels: Vec<KittiObject>,
+    /// The detections: each with a score, a 2D box and (for AOS) alpha.
+    pub detections: Vec<KittiObject>,
+}
+
 /// One frame's cleaned data and overlaps for a class, difficulty and metric.
 struct FrameData<'a> {
     gt: &'a [KittiObject],
     dt: &'a [KittiObject],
-    overlaps: Vec<Vec<f64>>,
+    overlaps: &'a [Vec<f64>],
     roles: Cleaned,
 }
 
@@ -365,9 +374,10 @@ struct Curves {
     orientation: [f64; SAMPLES],
 }
 
-/// [`Curves`] of one class, difficulty and metric.
+/// [`Curves`] of one class, difficulty and metric; `overlaps` are the metric's, per frame.
 fn curves(
-    frames: &[(&[KittiObject], &[KittiObject])],
+    frames: &[KittiFrame],
+    overlaps: &[Vec<Vec<f64>>],
     class: ObjectClass,
     diff: Difficulty,
     metric: ApMetric,
@@ -375,11 +385,12 @@ fn curves(
 ) -> Curves {
     let data: Vec<FrameData> = frames
         .iter()
-        .map(|(gt, dt)| FrameData {
-            gt,
-            dt,
-            overlaps: overlaps(gt, dt, metric),
-            roles: clean(gt, dt, class, diff),
+        .zip(overlaps)
+        .map(|(f, overlaps)| FrameData {
+            gt: &f.labels,
+            dt: &f.detections,
+            overlaps,
+            roles: clean(&f.labels, &f.detections, class, diff),
         })
         .collect();
     let total_valid: usize = data.iter().map(|f| f.roles.valid()).sum();
@@ -416,31 +427,47 @@ fn curves(
     c
 }
 
-/// KITTI AP of `classes` over frames of `(ground truth, detections)`. Detections need a score,
-/// a 2D box (for the height rule and the 2D metric) and, for AOS, alpha (AOS is computed
-/// unless the first detection's alpha is [`NO_ALPHA`], as in the devkit).
-pub fn kitti_ap(frames: &[(Vec<KittiObject>, Vec<KittiObject>)], classes: &[ObjectClass]) -> Vec<ClassAp> {
-    let refs: Vec<(&[KittiObject], &[KittiObject])> =
-        frames.iter().map(|(g, d)| (g.as_slice(), d.as_slice())).collect();
+/// KITTI AP of `classes` over `frames`. Detections need a score, a 2D box (for the height rule
+/// and the 2D metric) and, for AOS, alpha (AOS is computed unless the first detection's alpha is
+/// [`NO_ALPHA`], as in the devkit). Each metric's overlaps are computed once, for every class
+/// and difficulty, and the three metrics run in parallel (the figures do not depend on it).
+pub fn kitti_ap(frames: &[KittiFrame], classes: &[ObjectClass]) -> Vec<ClassAp> {
     let with_alpha = frames
         .iter()
-        .find(|(_, d)| !d.is_empty())
-        .is_some_and(|(_, d)| d[0].alpha != NO_ALPHA);
+        .find(|f| !f.detections.is_empty())
+        .is_some_and(|f| f.detections[0].alpha != NO_ALPHA);
+    let [bbox, bev, three_d] = std::thread::scope(|s| {
+        let metric_curves = |metric| s.spawn(move || metric_curves(frames, classes, metric));
+        [ApMetric::Bbox, ApMetric::Bev, ApMetric::ThreeD]
+            .map(metric_curves)
+            .map(|h| h.join().expect("the AP curves do not panic"))
+    });
+    let precision = |c: &[Curves; 3]| c.map(|c| Ap::from_curve(&c.precision));
+    classes
+        .iter()
+        .enumerate()
+        .map(|(k, &class)| ClassAp {
+            class,
+            min_overlap: official_min_overlap(class),
+            bbox: precision(&bbox[k]),
+            bev: precision(&bev[k]),
+            three_d: precision(&three_d[k]),
+            aos: with_alpha.then(|| bbox[k].map(|c| Ap::from_curve(&c.orientation))),
+        })
+        .collect()
+}
+
+/// The curves of one metric, per class, at `[easy, moderate, hard]`.
+fn metric_curves(frames: &[KittiFrame], classes: &[ObjectClass], metric: ApMetric) -> Vec<[Curves; 3]> {
+    let overlaps: Vec<Vec<Vec<f64>>> = frames
+        .iter()
+        .map(|f| overlaps(&f.labels, &f.detections, metric))
+        .collect();
     classes
         .iter()
         .map(|&class| {
             let mo = official_min_overlap(class) as f64;
-            let per_difficulty = |metric| Difficulty::ALL.map(|d| curves(&refs, class, d, metric, mo));
-            let precision = |c: [Curves; 3]| c.map(|c| Ap::from_curve(&c.precision));
-            let bbox = per_difficulty(ApMetric::Bbox);
-            ClassAp {
-                class,
-                min_overlap: mo as f32,
-                bbox: precision(bbox),
-                bev: precision(per_difficulty(ApMetric::Bev)),
-                three_d: precision(per_difficulty(ApMetric::ThreeD)),
-                aos: with_alpha.then(|| bbox.map(|c| Ap::from_curve(&c.orientation))),
-            }
+            Difficulty::ALL.map(|d| curves(frames, &overlaps, class, d, metric, mo))
         })
         .collect()
 }
@@ -472,7 +499,7 @@ mod tests {
     }
 
     /// 40 easy cars over 10 frames, each detected exactly with a distinct score.
-    fn perfect() -> Vec<(Vec<KittiObject>, Vec<KittiObject>)> {
+    fn perfect() -> Vec<KittiFrame> {
         (0..10)
             .map(|f| {
                 let gt: Vec<_> = (0..4)
@@ -488,7 +515,10 @@ mod tests {
                         )
                     })
                     .collect();
-                (gt, dt)
+                KittiFrame {
+                    labels: gt,
+                    detections: dt,
+                }
             })
             .collect()
     }
@@ -518,7 +548,9 @@ mod tests {
         // It counts at every threshold: precision k / (k + 1) at the k-th, made monotone from
         // the right → 40/41 everywhere: R11 = 10/11 · 40/41, R40 = 39/40 · 40/41.
         let mut frames = perfect();
-        frames[3].1.push(obj(ObjectClass::Car, 1000.0, 60.0, Some(0.99)));
+        frames[3]
+            .detections
+            .push(obj(ObjectClass::Car, 1000.0, 60.0, Some(0.99)));
         let r = &kitti_ap(&frames, &[ObjectClass::Car])[0];
         assert!(
             close(r.bbox[0].r11, 1000.0 / 11.0 * 40.0 / 41.0) && close(r.bbox[0].r40, 97.5 * 40.0 / 41.0),
@@ -533,14 +565,14 @@ mod tests {
         let base = kitti_ap(&perfect(), &[ObjectClass::Car])[0].clone();
         // A car detection on a Van is neither TP nor FP when evaluating Car.
         let mut f = perfect();
-        f[0].0.push(obj(ObjectClass::Van, 1000.0, 60.0, None));
-        f[0].1.push(obj(ObjectClass::Car, 1000.0, 60.0, Some(0.99)));
+        f[0].labels.push(obj(ObjectClass::Van, 1000.0, 60.0, None));
+        f[0].detections.push(obj(ObjectClass::Car, 1000.0, 60.0, Some(0.99)));
         assert_eq!(kitti_ap(&f, &[ObjectClass::Car])[0].bbox, base.bbox, "Van is ignored");
         // A detection inside a DontCare region is forgiven in 2D only (DontCare has no 3D box).
         let mut f = perfect();
         let dc = KittiObject::dont_care([1000.0, 150.0, 1080.0, 210.0]);
-        f[0].0.push(dc);
-        f[0].1.push(obj(ObjectClass::Car, 1005.0, 50.0, Some(0.99)));
+        f[0].labels.push(dc);
+        f[0].detections.push(obj(ObjectClass::Car, 1005.0, 50.0, Some(0.99)));
         let r = &kitti_ap(&f, &[ObjectClass::Car])[0];
         assert_eq!(r.bbox, base.bbox, "DontCare forgives in 2D");
         assert!(
@@ -550,7 +582,7 @@ mod tests {
         );
         // A detection shorter than 40 px is ignored at easy but counts (as an FP) at moderate.
         let mut f = perfect();
-        f[0].1.push(obj(ObjectClass::Car, 1000.0, 30.0, Some(0.99)));
+        f[0].detections.push(obj(ObjectClass::Car, 1000.0, 30.0, Some(0.99)));
         let r = &kitti_ap(&f, &[ObjectClass::Car])[0];
         assert_eq!(r.bbox[0], base.bbox[0]);
         assert!(close(r.bbox[1].r40, 97.5 * 40.0 / 41.0));
@@ -559,14 +591,15 @@ mod tests {
         // show: 40 of 41 still fills 40 samples.
         let mut f = perfect();
         for frame in f.iter_mut().take(5) {
-            frame.0.push(obj(ObjectClass::Car, 1000.0, 30.0, None));
+            frame.labels.push(obj(ObjectClass::Car, 1000.0, 30.0, None));
         }
         let r = &kitti_ap(&f, &[ObjectClass::Car])[0];
         assert_eq!(r.bbox[0], base.bbox[0]);
         assert!(r.bbox[1].r40 < base.bbox[1].r40 - 5.0, "{:?}", r.bbox[1]);
         // Other classes' detections do not count against Car.
         let mut f = perfect();
-        f[0].1.push(obj(ObjectClass::Pedestrian, 1000.0, 60.0, Some(0.99)));
+        f[0].detections
+            .push(obj(ObjectClass::Pedestrian, 1000.0, 60.0, Some(0.99)));
         assert_eq!(kitti_ap(&f, &[ObjectClass::Car])[0].bbox, base.bbox);
     }
 
@@ -574,10 +607,10 @@ mod tests {
     fn fewer_than_40_objects() {
         // One object, found: a single threshold fills sample 0 only, so R40 (which skips
         // recall 0) is 0 and R11 is 1/11 — the devkit's small-sample behaviour.
-        let f = vec![(
-            vec![obj(ObjectClass::Car, 100.0, 60.0, None)],
-            vec![obj(ObjectClass::Car, 100.0, 60.0, Some(0.9))],
-        )];
+        let f = vec![KittiFrame {
+            labels: vec![obj(ObjectClass::Car, 100.0, 60.0, None)],
+            detections: vec![obj(ObjectClass::Car, 100.0, 60.0, Some(0.9))],
+        }];
         let r = &kitti_ap(&f, &[ObjectClass::Car])[0];
         assert!(
             close(r.bbox[0].r11, 100.0 / 11.0) && r.bbox[0].r40 == 0.0,
@@ -603,11 +636,9 @@ mod tests {
         ids.sort();
         let frames: Vec<_> = ids
             .iter()
-            .map(|id| {
-                (
-                    read_labels(&root.join("gt").join(id)).unwrap(),
-                    read_labels(&root.join("dt").join(id)).unwrap(),
-                )
+            .map(|id| KittiFrame {
+                labels: read_labels(&root.join("gt").join(id)).unwrap(),
+                detections: read_labels(&root.join("dt").join(id)).unwrap(),
             })
             .collect();
         let r = kitti_ap(&frames, &[ObjectClass::Car, ObjectClass::Pedestrian]);

@@ -10,7 +10,7 @@ mod waymo_ap;
 
 pub use angle_ap::{ANGLE_BINS_DEG, AngleAp, ap_by_angle};
 pub use hungarian::max_weight_matching;
-pub use kitti_ap::{Ap, ApMetric, ClassAp, kitti_ap, official_min_overlap};
+pub use kitti_ap::{Ap, ApMetric, ClassAp, KittiFrame, kitti_ap, official_min_overlap};
 pub use range_ap::{RANGE_BIN_M, RangeAp, ap_by_range};
 pub use waymo_ap::{
     ApAph, RANGE_SHARDS, RecallPrecision, WaymoClassAp, WaymoDetection, WaymoFrame, WaymoObject, waymo_ap, waymo_level,

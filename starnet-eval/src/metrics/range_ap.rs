@@ -2,7 +2,7 @@
 //! breakdown): ground truth and detections are kept in a bin by their own bird's-eye-view
 //! distance from the LiDAR, and each bin is evaluated as a dataset of its own.
 
-use super::kitti_ap::{Ap, kitti_ap};
+use super::kitti_ap::{Ap, KittiFrame, kitti_ap};
 use serde::{Deserialize, Serialize};
 use starnet_data::kitti::{Calib, Difficulty, KittiObject, ObjectClass};
 
@@ -25,15 +25,10 @@ pub struct RangeAp {
     pub bev: Ap,
 }
 
-/// AP of `class` per [`RANGE_BIN_M`] bin up to `max_range`; `frames` are
-/// `(labels, detections)` with their calibrations (for the LiDAR-frame distance). DontCare
-/// regions stay in every bin.
-pub fn ap_by_range(
-    frames: &[(Vec<KittiObject>, Vec<KittiObject>)],
-    calibs: &[Calib],
-    class: ObjectClass,
-    max_range: f32,
-) -> Vec<RangeAp> {
+/// AP of `class` per [`RANGE_BIN_M`] bin up to `max_range`; `calibs` are the frames'
+/// calibrations, one per frame (for the LiDAR-frame distance). DontCare regions stay in every
+/// bin.
+pub fn ap_by_range(frames: &[KittiFrame], calibs: &[Calib], class: ObjectClass, max_range: f32) -> Vec<RangeAp> {
     assert_eq!(frames.len(), calibs.len(), "one calibration per frame");
     let bins = (max_range / RANGE_BIN_M).ceil() as usize;
     (0..bins)
@@ -46,15 +41,14 @@ pub fn ap_by_range(
             let subset: Vec<_> = frames
                 .iter()
                 .zip(calibs)
-                .map(|((gt, dt), c)| {
-                    let gt: Vec<_> = gt.iter().filter(|o| keep(o, c)).cloned().collect();
-                    let dt: Vec<_> = dt.iter().filter(|o| keep(o, c)).cloned().collect();
-                    (gt, dt)
+                .map(|(f, c)| KittiFrame {
+                    labels: f.labels.iter().filter(|o| keep(o, c)).cloned().collect(),
+                    detections: f.detections.iter().filter(|o| keep(o, c)).cloned().collect(),
                 })
                 .collect();
             let counts =
                 |o: &&KittiObject| o.class == class && o.difficulty().is_some_and(|d| d <= Difficulty::Moderate);
-            let num_objects = subset.iter().flat_map(|f| &f.0).filter(counts).count();
+            let num_objects = subset.iter().flat_map(|f| &f.labels).filter(counts).count();
             let ap = kitti_ap(&subset, &[class]).remove(0);
             RangeAp {
                 lo,
@@ -105,8 +99,8 @@ mod tests {
         let frames: Vec<_> = (0..40)
             .map(|k| {
                 let gt = vec![car(5.0, 100.0, None), hard_only.clone(), car(25.0, 400.0, None)];
-                let dt = vec![car(5.0, 100.0, Some(0.5 + 0.01 * k as f32))];
-                (gt, dt)
+                let detections = vec![car(5.0, 100.0, Some(0.5 + 0.01 * k as f32))];
+                KittiFrame { labels: gt, detections }
             })
             .collect();
         let calibs = vec![Calib::kitti_000000(); frames.len()];

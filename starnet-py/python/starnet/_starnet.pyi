@@ -97,3 +97,18 @@ def score_arrays(
     classes: Optional[Sequence[str]] = None,
     labels: str = "label_2",
 ) -> dict[str, Any]: ...
+def kitti_folder(
+    gt_root: _Path,
+    results: _Path,
+    *,
+    split: str = "val",
+    classes: Optional[Sequence[str]] = None,
+    format: Optional[str] = None,
+) -> list[dict[str, Any]]: ...
+def kitti_arrays(
+    gt_root: _Path,
+    results: Mapping[str, Any],
+    *,
+    split: str = "val",
+    classes: Optional[Sequence[str]] = None,
+) -> list[dict[str, Any]]: ...

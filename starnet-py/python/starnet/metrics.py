@@ -35,7 +35,7 @@ def score(
     (folders only): ``"kitti"`` or ``"detect"``, default whichever the first frame has.
 
     Returns a dict: ``frames``; ``classes``, per class its KITTI AP (``three_d``, ``bev``,
-    ``two_d``, ``aos``: per difficulty easy, moderate, hard, ``r40`` and ``r11``); ``waymo``,
+    ``bbox`` (2D), ``aos``: a list over easy, moderate, hard of ``r40`` and ``r11``); ``waymo``,
     per class LEVEL_1 / LEVEL_2 AP and APH; ``by_range``.
     """
     if isinstance(results, Mapping):
@@ -55,8 +55,13 @@ def kitti(
     classes: Optional[Sequence[str]] = None,
     format: Optional[str] = None,
 ) -> list:
-    """KITTI AP per class (camera-view labels), as the devkit computes it: ``score(...)["classes"]``."""
-    return score(gt_root, results, split=split, classes=classes, format=format)["classes"]
+    """KITTI AP per class (camera-view labels), as the devkit computes it: ``score(...)["classes"]``,
+    from the labels and calibrations alone (the scans are not read, no other metric is computed)."""
+    if isinstance(results, Mapping):
+        if format is not None:
+            raise ValueError("format applies to a result folder, not to arrays")
+        return _starnet.kitti_arrays(gt_root, dict(results), split=split, classes=classes)
+    return _starnet.kitti_folder(gt_root, results, split=split, classes=classes, format=format)
 
 
 def waymo(
