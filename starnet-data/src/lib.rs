@@ -1,7 +1,8 @@
-//! StarNet data: box geometry, KITTI I/O, and (in later modules) the LiDAR simulator,
-//! center sampling, neighbourhoods and augmentation. [`cloud`] reads and writes the point clouds
-//! of other LiDARs (PCD, PLY, `.npy`). No deep-learning dependency: every function here is plain
-//! Rust on slices, so data-loader threads can run it.
+//! StarNet data: box geometry, KITTI I/O, center sampling, neighbourhoods, augmentation and the
+//! loader. [`cloud`] reads and writes the point clouds of other LiDARs (PCD, PLY, `.npy`). No
+//! deep-learning dependency: every function here is plain Rust on slices, so data-loader threads
+//! can run it. The LiDAR simulator that writes the default dataset is the `starnet-sim` crate,
+//! above this one.
 //!
 //! # Frames
 //!
@@ -48,17 +49,12 @@ pub mod geometry;
 pub mod io;
 pub mod kitti;
 pub mod loader;
-mod par;
-pub mod realism;
+pub mod par;
 pub mod sampling;
 pub mod seed;
 pub mod settings;
-pub mod sim;
 pub mod staging;
 pub mod summary;
 
 pub use error::{DataError, Result};
-pub use geometry::{Box3d, wrap_angle};
-
-/// A LiDAR point: `[x, y, z, reflectance]`, LiDAR frame, reflectance in [0, 1].
-pub type Point = [f32; 4];
+pub use geometry::{Box3d, Point, wrap_angle};

@@ -14,9 +14,9 @@ use starnet_data::augment::{AugmentConfig, GtDatabase, Scene, augment as augment
 use starnet_data::kitti::KittiDataset;
 use starnet_data::kitti::ObjectClass;
 use starnet_data::sampling::{AnchorGrid, Augmentation, GatherConfig, PipelineConfig, prepare_frame};
-use starnet_data::sim::{SynthConfig, synth_frames};
 use starnet_model::assign::AssignConfig;
 use starnet_model::batch::frame_targets;
+use starnet_sim::{SynthConfig, synth_frames};
 use std::time::Instant;
 
 #[global_allocator]

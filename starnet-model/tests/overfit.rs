@@ -8,13 +8,13 @@ use starnet_data::Box3d;
 use starnet_data::geometry::iou_bev;
 use starnet_data::kitti::{Calib, ObjectClass};
 use starnet_data::sampling::{GatherConfig, PipelineConfig, prepare_frame};
-use starnet_data::sim::{SynthConfig, simulate_scene_frame};
 use starnet_model::assign::AssignConfig;
 use starnet_model::backend::default_device;
 use starnet_model::batch::{decode_frame, frame_targets, make_batch};
 use starnet_model::loss::{LossConfig, starnet_loss};
 use starnet_model::nms::{ClassNms, NmsConfig};
 use starnet_model::nn::StarNetConfig;
+use starnet_sim::{SynthConfig, simulate_scene_frame};
 
 #[test]
 fn small_model_overfits_one_frame_and_recovers_its_cars() {

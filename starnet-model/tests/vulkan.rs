@@ -10,13 +10,13 @@ use burn::prelude::*;
 use rand::SeedableRng;
 use starnet_data::kitti::{Calib, ObjectClass};
 use starnet_data::sampling::{GatherConfig, PipelineConfig, prepare_frame};
-use starnet_data::sim::{SynthConfig, simulate_scene_frame};
 use starnet_model::assign::{AnchorTargets, AssignConfig};
 use starnet_model::backend::DeviceChoice;
 use starnet_model::batch::{StarNetBatch as Batch, frame_targets, make_batch};
 use starnet_model::export::named_tensors;
 use starnet_model::loss::{LossConfig, LossTerms, starnet_loss};
 use starnet_model::nn::{StarNet, StarNetConfig};
+use starnet_sim::{SynthConfig, simulate_scene_frame};
 
 fn frame() -> (starnet_data::sampling::PreparedFrame, AnchorTargets) {
     let calib = Calib::kitti_000000();

@@ -162,7 +162,7 @@ mod tests {
     use super::*;
     use starnet_data::kitti::Calib;
     use starnet_data::sampling::CenterTarget;
-    use starnet_data::sim::{SynthConfig, simulate_scene_frame};
+    use starnet_sim::{SynthConfig, simulate_scene_frame};
 
     fn frame(scene: u64) -> Frame {
         let calib = Calib::kitti_000000();

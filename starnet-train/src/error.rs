@@ -54,7 +54,7 @@ pub enum TrainError {
         root: PathBuf,
         /// The version in its `synth.json`.
         found: u32,
-        /// This build's [`starnet_data::sim::SIMULATOR_VERSION`].
+        /// This build's [`starnet_sim::SIMULATOR_VERSION`].
         expected: u32,
     },
     /// Training stopped on a non-finite loss.

@@ -16,7 +16,7 @@ use starnet_data::kitti::{
     Calib, Frame, ImageSize, KittiDataset, decode_points, encode_points, format_labels, parse_labels,
 };
 use starnet_data::sampling::{CenterPoolConfig, GatherConfig, PipelineConfig, prepare_frame};
-use starnet_data::sim::{SynthConfig, simulate_scene_frame};
+use starnet_sim::{SynthConfig, simulate_scene_frame};
 use std::path::{Path, PathBuf};
 
 /// Runs a parser on an input; returns whether it accepted it.
@@ -61,7 +61,7 @@ fn sample_files(sample: &Path, sub: &str) -> Vec<Vec<u8>> {
     files.iter().map(|f| std::fs::read(f).unwrap()).collect()
 }
 
-fn simulated(scene: u64) -> starnet_data::sim::SynthFrame {
+fn simulated(scene: u64) -> starnet_sim::SynthFrame {
     simulate_scene_frame(scene, 0, &SynthConfig::default(), &Calib::kitti_000000())
 }
 

@@ -7,6 +7,7 @@ mod detection;
 mod grid;
 mod ground;
 mod iou;
+mod point;
 mod polygon;
 mod pose;
 
@@ -17,5 +18,6 @@ pub use ground::{GroundConfig, GroundModel};
 pub use iou::{
     IouKind, PreparedBox, iou_3d, iou_3d_prepared, iou_bev, iou_bev_prepared, iou_bev_upper_bound, iou_matrix,
 };
+pub use point::Point;
 pub use polygon::{convex_intersection_area, convex_separated, polygon_area};
 pub use pose::{Pose, parse_poses, read_poses};

@@ -1,10 +1,10 @@
 //! `starnet compare-data A B`: two KITTI-layout folders' realism statistics side by side
-//! ([`starnet_data::realism`]), as a table, JSON and plots.
+//! ([`starnet_sim::realism`]), as a table, JSON and plots.
 
 use crate::Result;
 use crate::render::{LinePlot, Series};
 use starnet_data::io::atomic_write;
-use starnet_data::realism::{RealismComparison, RealismReport, ReflectanceBin, realism_report};
+use starnet_sim::realism::{RealismComparison, RealismReport, ReflectanceBin, realism_report};
 use std::path::Path;
 
 /// One folder to measure.

@@ -2,8 +2,8 @@
 
 use crate::{Result, TrainError};
 use starnet_data::events::{Task, note};
-use starnet_data::sim::{SynthConfig, dataset_stats, synth_frames, synth_sequences};
 use starnet_data::staging::Outcome;
+use starnet_sim::{SynthConfig, dataset_stats, synth_frames, synth_sequences};
 use std::path::Path;
 use std::time::Instant;
 

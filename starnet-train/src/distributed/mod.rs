@@ -83,9 +83,9 @@ mod tests {
     use crate::train::{StepLosses, TrainItem, Trainer};
     use rand::SeedableRng;
     use starnet_data::sampling::prepare_frame;
-    use starnet_data::sim::{SynthConfig, simulate_scene_frame};
     use starnet_model::batch::frame_targets;
     use starnet_model::export::named_tensors;
+    use starnet_sim::{SynthConfig, simulate_scene_frame};
     use std::path::Path;
 
     /// Simulated frame `k`, prepared as the loader prepares it (no augmentation).

@@ -189,7 +189,7 @@ mod tests {
     use crate::render::{RenderOptions, frame_scene};
     use starnet_data::kitti::KittiDataset;
     use starnet_data::sampling::Sampler;
-    use starnet_data::sim::{SynthConfig, synth_frames};
+    use starnet_sim::{SynthConfig, synth_frames};
 
     fn entity<'a>(entities: &'a [RrdEntity], path: &str) -> &'a RrdEntity {
         entities

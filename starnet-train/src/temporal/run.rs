@@ -297,9 +297,9 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use starnet_data::kitti::Calib;
     use starnet_data::sampling::prepare_frame;
-    use starnet_data::sim::{SynthConfig, simulate_scene_frame};
     use starnet_model::batch::decode_frame;
     use starnet_model::batch::make_input;
+    use starnet_sim::{SynthConfig, simulate_scene_frame};
 
     fn frame() -> Frame {
         let calib = Calib::kitti_000000();

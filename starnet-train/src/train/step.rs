@@ -329,9 +329,9 @@ mod tests {
     use crate::config::load_config;
     use rand::SeedableRng;
     use starnet_data::sampling::{NUM_FEATURES, prepare_frame};
-    use starnet_data::sim::{SynthConfig, simulate_scene_frame};
     use starnet_model::batch::frame_targets;
     use starnet_model::export::named_tensors;
+    use starnet_sim::{SynthConfig, simulate_scene_frame};
 
     /// A simulated frame prepared as the loader prepares it (no augmentation).
     fn item(cfg: &ExperimentConfig) -> TrainItem {

@@ -47,7 +47,7 @@ impl Synth {
             (Some(sequences), Some(length)) => SynthJob::Sequences { sequences, length },
             _ => SynthJob::Frames(self.frames),
         };
-        let cfg = starnet_data::sim::SynthConfig {
+        let cfg = starnet_sim::SynthConfig {
             val_fraction: self.val_fraction,
             ..Default::default()
         };
