@@ -6,8 +6,9 @@ use common::{starnet, write_tiny_car};
 
 use burn::module::Module;
 use burn::prelude::*;
+use starnet_train::checkpoint::load_model;
 use starnet_train::config::load_config;
-use starnet_train::train::{TrainOptions, load_model, train};
+use starnet_train::train::{TrainOptions, train};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -91,7 +92,7 @@ fn resuming_after_a_crash_gives_the_same_parameters() {
     // The same config run again continues the run, as --resume does.
     let resumed = train(&cfg, &b, &TrainOptions::default()).unwrap();
     assert_eq!(resumed.steps, full.steps);
-    let last = |run: &Path| starnet_train::train::latest_checkpoint(&run.join("checkpoints")).unwrap();
+    let last = |run: &Path| starnet_train::checkpoint::latest_checkpoint(&run.join("checkpoints")).unwrap();
     let (pa, pb) = (
         parameters(&last(&a).join("model.bpk")),
         parameters(&last(&b).join("model.bpk")),
@@ -452,7 +453,7 @@ fn a_car_model_fine_tunes_to_cyclists_and_each_checkpoint_is_evaluated() {
     let o = starnet(&["eval", "--run", car.to_str().unwrap()], dir.path());
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let steps = starnet_train::train::step_checkpoints(&car.join("checkpoints"));
+    let steps = starnet_train::checkpoint::step_checkpoints(&car.join("checkpoints"));
     assert_eq!(steps.len(), 2, "two epochs, two step checkpoints");
     assert_eq!(out.matches("headline AP").count(), 2, "{out}");
     let evals = car.join("eval-val");
@@ -507,7 +508,7 @@ fn a_car_model_fine_tunes_to_cyclists_and_each_checkpoint_is_evaluated() {
     assert!(fresh.iter().all(|n| n.contains("_head.")), "{fresh:?}");
     // The featurizer is the car model's after the frozen epoch, and trained after the next.
     let source = named_tensors(&best.join("ema.bpk"), &car.join("config.toml"));
-    let cyc_steps = starnet_train::train::step_checkpoints(&cyc_run.join("checkpoints"));
+    let cyc_steps = starnet_train::checkpoint::step_checkpoints(&cyc_run.join("checkpoints"));
     let cyc_config = cyc_run.join("config.toml");
     let after = |i: usize| named_tensors(&cyc_steps[i].path.join("model.bpk"), &cyc_config);
     let (frozen, trained) = (after(0), after(1));

@@ -7,8 +7,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use starnet_data::kitti::Calib;
 use starnet_train::budget::Budget;
-use starnet_train::commands::detect::{DetectedSweep, detect_sweep};
-use starnet_train::evaluate::frame_seed;
+use starnet_train::detect::{DetectedSweep, detect_sweep};
+use starnet_train::detector::frame_seed;
 use starnet_train::trained::TrainedModel;
 use std::path::PathBuf;
 

@@ -27,6 +27,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::kitti::{Frame, ObjectClass};
 use starnet_data::sampling::{AnchorGrid, PipelineConfig, PreparedFrame, prepare_frame};
+use starnet_data::seed::sub_seed;
 use starnet_model::batch::{decode_detections, make_input};
 use starnet_model::flops::forward_gflop;
 use starnet_model::nms::{Detection, NmsConfig, nms};
@@ -155,6 +156,11 @@ impl Detector {
             state,
         }
     }
+}
+
+/// The seed of the `i`-th evaluated frame's sampling RNG, for experiment seed `seed`.
+pub fn frame_seed(seed: u64, i: usize) -> u64 {
+    sub_seed(seed, 21, i as u64)
 }
 
 #[cfg(test)]

@@ -1,10 +1,10 @@
 //! [`TrainedModel`]: a trained network and the experiment config it was trained with, loaded
 //! from a checkpoint or an export folder — the one loader every command uses.
 
+use crate::checkpoint::load_model;
 use crate::config::{ExperimentConfig, load_config};
 use crate::detector::Detector;
 use crate::export::load_exported;
-use crate::train::load_model;
 use crate::{Result, TrainError};
 use starnet_model::nn::StarNet;
 use std::path::{Path, PathBuf};

@@ -201,9 +201,9 @@ fn checkpoint() -> Target {
         text: false,
         run: Box::new(move |b| {
             let file = Path::new("model.bpk");
-            let as_model = starnet_train::train::model_from_bytes(b.to_vec(), model.clone(), file).is_ok();
+            let as_model = starnet_train::checkpoint::model_from_bytes(b.to_vec(), model.clone(), file).is_ok();
             let as_state =
-                text_of(b).is_some_and(|t| starnet_train::train::parse_state(t, Path::new("state.json")).is_ok());
+                text_of(b).is_some_and(|t| starnet_train::checkpoint::parse_state(t, Path::new("state.json")).is_ok());
             as_model || as_state
         }),
     }

@@ -30,27 +30,26 @@
 //! # Ok::<(), starnet_train::TrainError>(())
 //! ```
 
-mod checkpoint;
 mod clip;
+mod curves;
 mod data;
 mod ema;
 mod init_from;
 mod log;
 mod run_lock;
 mod schedule;
+mod snapshot;
 mod step;
 mod trainer;
 
-pub use checkpoint::{
-    Restored, StepCheckpoint, TrainState, latest_checkpoint, load_checkpoint, load_model, model_from_bytes,
-    parse_state, save_checkpoint, step_checkpoints,
-};
 pub use clip::{clip_global_norm, global_norm, scale_to_norm, squared_grad_norms};
+pub use curves::{LogLine, RunLog, plot_run, read_log, run_plots, smooth};
 pub use data::{TrainItem, ensure_data, paste_database, prepare_database, slices_at, train_item, train_loader};
 pub use ema::WeightEma;
 pub use init_from::{FreshTensor, InitReport, InitSource, Reinitialised, init_from};
 pub use log::{StepRecord, TrainLog, progress_line};
 pub use run_lock::{LOCK_FILE, RunLock};
 pub use schedule::{Schedule, lr_multiplier};
+pub use snapshot::{Restored, load_checkpoint, save_checkpoint};
 pub use step::{Featurizer, StepLosses, Trainer};
-pub use trainer::{OnTie, RunFolder, TrainOptions, TrainSummary, end_epoch, run_dir_for, train, validate};
+pub use trainer::{OnTie, RunFolder, TrainOptions, TrainSummary, end_epoch, run_dir_for, train};

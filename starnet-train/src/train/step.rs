@@ -1,11 +1,12 @@
 //! [`Trainer`]: the model, Adam, the weight EMA and the position of a run, and one optimisation
 //! step on a batch of prepared sweeps — the piece a custom training loop calls.
 
-use super::checkpoint::{Restored, TrainState, load_checkpoint, save_checkpoint};
 use super::clip::{global_norm, scale_to_norm, squared_grad_norms};
 use super::data::TrainItem;
 use super::ema::WeightEma;
 use super::init_from::{InitReport, InitSource, init_from};
+use super::snapshot::{Restored, load_checkpoint, save_checkpoint};
+use crate::checkpoint::TrainState;
 use crate::config::ExperimentConfig;
 use crate::distributed::{Replicas, average, average_gradients, scope};
 use crate::{Result, TrainError};

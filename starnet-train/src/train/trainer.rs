@@ -9,24 +9,21 @@
 //! A streaming config (`stream.train_slices`) cuts every sweep of a step into the same drawn
 //! number of slices and runs them as one sequence (through the LSTM, when the model has one).
 
-use super::checkpoint::{latest_checkpoint, prune, recover_checkpoints};
 use super::data::{TrainItem, ensure_data, paste_database, train_loader};
 use super::init_from::{InitReport, InitSource};
 use super::log::{StepRecord, TrainLog, progress_line};
 use super::run_lock::RunLock;
 use super::schedule::Schedule;
 use super::step::{Featurizer, Trainer};
-use crate::budget::Budget;
+use crate::checkpoint::{latest_checkpoint, prune, recover_checkpoints};
 use crate::config::{ExperimentConfig, to_toml};
-use crate::detector::Detector;
 use crate::distributed::{Replicas, Role};
-use crate::evaluate::{EvalOptions, evaluate};
-use crate::stream::{NmsMode, StreamGroundTruth, StreamModel, evaluate_stream};
+use crate::evaluate::validate;
+use crate::json::write_json;
 use crate::{Result, TrainError};
 use starnet_data::events::{Task, note};
 use starnet_data::kitti::KittiDataset;
 use starnet_eval::EvalReport;
-use starnet_model::nn::StarNet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -60,25 +57,6 @@ pub struct TrainSummary {
     pub interrupted: bool,
     /// The final evaluation on the validation split.
     pub eval: Option<EvalReport>,
-}
-
-/// The validation of a run: [`evaluate`] at the config's budget, or for a streaming config
-/// (sliced training or an LSTM) the streamed evaluation at `stream.eval_slices` with stateful
-/// NMS (which writes no result files).
-pub fn validate(
-    model: &StarNet,
-    cfg: &ExperimentConfig,
-    val: &KittiDataset,
-    results: Option<&Path>,
-) -> Result<EvalReport> {
-    if !cfg.stream.enabled() && cfg.model.lstm_hidden == 0 {
-        return evaluate(&Detector::new(model.clone(), cfg), val, EvalOptions::of(cfg), results);
-    }
-    let gt = StreamGroundTruth::read(cfg.stream.eval_range, val, None)?;
-    let streamed = StreamModel::new(String::new(), model.clone(), cfg, Budget::of(cfg));
-    let report = evaluate_stream(&streamed, val, &gt, cfg.stream.eval_slices)?;
-    note(report.to_string());
-    Ok(report.eval_report(NmsMode::Stateful))
 }
 
 /// The run folder of a config: `{run_root}/{file stem}`.
@@ -348,10 +326,7 @@ fn finish(
     }
     let report = validate(&trainer.eval_model(), cfg, val_set, Some(&run.dir.join("results")))?;
     run.keep_best(&mut trainer, report.headline(), OnTie::TakeNew)?;
-    starnet_data::io::atomic_write(
-        &run.dir.join("eval.json"),
-        serde_json::to_string_pretty(&report).expect("serialises").as_bytes(),
-    )?;
+    write_json(&run.dir.join("eval.json"), &report)?;
     Ok(summary(run, &trainer, false, Some(report)))
 }
 

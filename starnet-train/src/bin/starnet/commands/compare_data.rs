@@ -2,7 +2,7 @@
 //! your own sensor's).
 
 use clap::Args;
-use starnet_train::commands::compare_data::{DataSource, compare_data, write_comparison};
+use starnet_train::realism::{DataSource, compare_data, write_comparison};
 use std::path::PathBuf;
 
 /// Compare two KITTI-layout folders (the simulator's and real scans, or your own sensor's):

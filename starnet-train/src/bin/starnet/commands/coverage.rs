@@ -3,7 +3,7 @@
 use clap::Args;
 use starnet_data::kitti::ObjectClass;
 use starnet_data::sampling::Sampler;
-use starnet_train::commands::coverage::{paper_coverage, run_coverage};
+use starnet_train::evaluate::{paper_coverage, run_coverage};
 use std::path::PathBuf;
 
 /// Measure how many objects (with at least 5 points) the sampled centers reach: the share

@@ -32,8 +32,8 @@ pub struct Detect {
 impl Detect {
     pub fn run(self) -> anyhow::Result<()> {
         let trained = TrainedModel::load(&self.model, self.config.as_deref(), &[])?;
-        let files = starnet_train::commands::detect::sweep_files(&self.input)?;
-        let sweeps = starnet_train::commands::detect::detect(
+        let files = starnet_train::detect::sweep_files(&self.input)?;
+        let sweeps = starnet_train::detect::detect(
             &trained.detector(),
             trained.config.seed,
             &files,

@@ -7,10 +7,11 @@ use starnet_data::kitti::{KittiDataset, LabelSource, ObjectClass};
 use starnet_data::sampling::CenterTarget;
 use starnet_eval::{ResultFormat, score_results, write_scores};
 use starnet_train::budget::Budget;
-use starnet_train::commands::eval::{budget_grid, budget_table, sweep};
-use starnet_train::commands::eval_run::{RunEval, evaluate_run, run_table};
-use starnet_train::evaluate::EvalOptions;
-use starnet_train::temporal::{PrevCenters, open_sequences, temporal_sweep, temporal_table, write_temporal};
+use starnet_train::evaluate::{
+    EvalOptions, RunEval, budget_grid, budget_table, evaluate_run, run_table, sweep, temporal_sweep, temporal_table,
+    write_temporal,
+};
+use starnet_train::temporal::{PrevCenters, open_sequences};
 use starnet_train::trained::TrainedModel;
 use std::path::{Path, PathBuf};
 

@@ -2,7 +2,7 @@
 
 use clap::Args;
 use starnet_data::kitti::KittiDataset;
-use starnet_train::commands::inspect::inspect_frame;
+use starnet_train::inspect::inspect_frame;
 use std::path::PathBuf;
 
 /// Print what a frame holds: point count, and per label its class, LiDAR-frame box

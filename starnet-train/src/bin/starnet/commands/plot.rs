@@ -1,10 +1,8 @@
 //! `starnet plot`: plot a run's training curves from its log.jsonl.
 
 use clap::Args;
-use starnet_train::commands::eval::replot_sweep;
-use starnet_train::commands::plot::plot_run;
-use starnet_train::stream::replot_stream;
-use starnet_train::temporal::replot_temporal;
+use starnet_train::evaluate::{replot_stream, replot_sweep, replot_temporal};
+use starnet_train::train::plot_run;
 use std::path::{Path, PathBuf};
 
 /// Plot a run's training curves from its log.jsonl: loss.png (total and terms), lr.png and,

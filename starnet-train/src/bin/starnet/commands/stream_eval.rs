@@ -4,7 +4,8 @@ use anyhow::Context;
 use clap::Args;
 use starnet_data::sampling::CenterTarget;
 use starnet_train::budget::Budget;
-use starnet_train::stream::{StreamGroundTruth, StreamModel, stream_runs, stream_tables, write_stream};
+use starnet_train::evaluate::{StreamGroundTruth, stream_runs, stream_tables, write_stream};
+use starnet_train::stream::StreamModel;
 use starnet_train::trained::{TrainedModel, run_label};
 use std::path::PathBuf;
 

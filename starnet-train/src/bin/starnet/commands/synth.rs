@@ -1,7 +1,7 @@
 //! `starnet synth`: generate the built-in dataset.
 
 use clap::Args;
-use starnet_train::commands::synth::{SynthJob, run_stats, run_synth};
+use starnet_train::synth::{SynthJob, run_stats, run_synth};
 use std::path::PathBuf;
 
 /// Generate the built-in dataset: a ray-cast 64-beam LiDAR over simulated streets, written in

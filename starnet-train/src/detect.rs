@@ -9,8 +9,7 @@
 //! sensor (no camera frustum) and only the JSON is written. A cloud without an intensity channel
 //! needs a geometry-only model (`pipeline.gather.reflectance = "ignored"`, as the quickstart's).
 
-use crate::detector::Detector;
-use crate::evaluate::frame_seed;
+use crate::detector::{Detector, frame_seed};
 use crate::{Result, TrainError};
 use starnet_data::DataError;
 use starnet_data::cloud::{CLOUD_EXTENSIONS, Intensity, Kept, PointCloud, read_cloud};

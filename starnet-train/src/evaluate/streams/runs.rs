@@ -1,10 +1,10 @@
 //! [`stream_runs`]: several models streamed at several slice counts ([`StreamRun`]), what
 //! `starnet stream-eval` tabulates and plots.
 
-use super::evaluate::{StreamReport, evaluate_stream};
 use super::ground_truth::StreamGroundTruth;
-use super::model::StreamModel;
+use super::split::{StreamReport, evaluate_stream};
 use crate::Result;
+use crate::stream::StreamModel;
 use serde::{Deserialize, Serialize};
 use starnet_data::kitti::{KittiDataset, ObjectClass};
 

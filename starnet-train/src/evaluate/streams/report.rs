@@ -3,13 +3,14 @@
 //! worst-case latency model (§4.4: scanning a slice at the LiDAR rate, then inferring on it,
 //! against a full rotation then a full-sweep inference), and their plots.
 
-use super::evaluate::StreamReport;
 use super::runs::StreamRun;
-use super::sweep::NmsMode;
+use super::split::StreamReport;
 use crate::Result;
+use crate::json::read_json;
 use crate::render::{LinePlot, Series};
+use crate::report::ReportFiles;
+use crate::stream::NmsMode;
 use serde::{Deserialize, Serialize};
-use starnet_data::io::atomic_write;
 use starnet_eval::Table;
 use starnet_eval::metrics::ANGLE_BINS_DEG;
 use std::fmt::Write as _;
@@ -247,20 +248,17 @@ pub fn stream_plots(runs: &[StreamRun]) -> [LinePlot; 3] {
 /// Writes `stream.md`, `stream.json` and `stream_ap.png`, `stream_flops.png`,
 /// `stream_latency.png` into `out`.
 pub fn write_stream(out: &Path, runs: &[StreamRun]) -> Result<()> {
-    atomic_write(&out.join("stream.md"), stream_tables(runs).as_bytes())?;
-    let json = serde_json::to_string_pretty(runs).expect("reports serialise");
-    atomic_write(&out.join("stream.json"), json.as_bytes())?;
-    let [ap, flops, lat] = stream_plots(runs);
-    ap.render()?.save_png(&out.join("stream_ap.png"))?;
-    flops.render()?.save_png(&out.join("stream_flops.png"))?;
-    lat.render()?.save_png(&out.join("stream_latency.png"))?;
-    Ok(())
+    let [ap, flops, latency] = stream_plots(runs);
+    ReportFiles {
+        stem: "stream",
+        table: stream_tables(runs),
+        data: runs,
+        plots: vec![("stream_ap", ap), ("stream_flops", flops), ("stream_latency", latency)],
+    }
+    .write(out)
 }
 
 /// Redraws `stream.md` and the plots from a folder's `stream.json`.
 pub fn replot_stream(dir: &Path) -> Result<()> {
-    write_stream(
-        dir,
-        &crate::json::read_json::<Vec<StreamRun>>(&dir.join("stream.json"))?,
-    )
+    write_stream(dir, &read_json::<Vec<StreamRun>>(&dir.join("stream.json"))?)
 }

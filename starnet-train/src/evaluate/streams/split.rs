@@ -2,9 +2,8 @@
 //! subtended angle for each NMS mode, peak compute and latency ([`StreamReport`]).
 
 use super::ground_truth::StreamGroundTruth;
-use super::model::StreamModel;
-use super::sweep::{NmsMode, stream_sweep};
 use crate::Result;
+use crate::stream::{NmsMode, StreamModel, stream_sweep};
 use serde::{Deserialize, Serialize};
 use starnet_data::events::Task;
 use starnet_data::kitti::{KittiDataset, LabelSource};
@@ -49,7 +48,7 @@ pub struct StreamReport {
     pub gflop_per_slice: f64,
     /// Peak compute as a fraction of the whole sweep's in one forward.
     pub peak_fraction: f64,
-    /// Median per-slice latency, ms (see [`super::StreamedSweep::slice_ms`]).
+    /// Median per-slice latency, ms (see [`crate::stream::StreamedSweep::slice_ms`]).
     pub slice_ms_median: f64,
     /// Mean per-slice latency, ms.
     pub slice_ms_mean: f64,

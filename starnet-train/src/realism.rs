@@ -3,7 +3,7 @@
 
 use crate::Result;
 use crate::render::{LinePlot, Series};
-use starnet_data::io::atomic_write;
+use crate::report::ReportFiles;
 use starnet_sim::realism::{RealismComparison, RealismReport, ReflectanceBin, realism_report};
 use std::path::Path;
 
@@ -28,13 +28,14 @@ pub fn compare_data(a: DataSource<'_>, b: DataSource<'_>, max_frames: Option<usi
 /// `zero_by_range.png` into `out`.
 pub fn write_comparison(out: &Path, cmp: &RealismComparison) -> Result<()> {
     std::fs::create_dir_all(out).map_err(|e| starnet_data::DataError::io(out, e))?;
-    atomic_write(&out.join("realism.md"), cmp.to_string().as_bytes())?;
-    let json = serde_json::to_string_pretty(cmp).expect("reports serialise");
-    atomic_write(&out.join("realism.json"), json.as_bytes())?;
     let [mean, zeros] = comparison_plots(cmp);
-    mean.render()?.save_png(&out.join("reflectance_by_range.png"))?;
-    zeros.render()?.save_png(&out.join("zero_by_range.png"))?;
-    Ok(())
+    ReportFiles {
+        stem: "realism",
+        table: cmp.to_string(),
+        data: cmp,
+        plots: vec![("reflectance_by_range", mean), ("zero_by_range", zeros)],
+    }
+    .write(out)
 }
 
 /// Mean reflectance and zero share against range, for every return and for car returns of

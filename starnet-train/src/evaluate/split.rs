@@ -1,13 +1,12 @@
-//! Evaluating a model on a split at a center/point budget: detections for every frame, written
-//! as KITTI result files and scored by [`Scorer`] (KITTI AP, Waymo-style AP/APH, AP per 10 m);
-//! the per-frame latency.
+//! `starnet eval --checkpoint`: a model on a split at a center/point budget: detections for
+//! every frame, written as KITTI result files and scored by [`Scorer`] (KITTI AP, Waymo-style
+//! AP/APH, AP per 10 m); the per-frame latency.
 
 use crate::Result;
 use crate::config::ExperimentConfig;
-use crate::detector::Detector;
+use crate::detector::{Detector, frame_seed};
 use starnet_data::events::Task;
 use starnet_data::kitti::KittiDataset;
-use starnet_data::seed::sub_seed;
 use starnet_data::summary::{mean, quantile};
 use starnet_eval::{EvalReport, Scorer, Scores};
 use std::path::Path;
@@ -83,9 +82,4 @@ pub fn evaluate(
     }
     drop(task);
     Ok(eval_report(detector, scorer.finish(), &latencies))
-}
-
-/// The seed of the `i`-th evaluated frame's sampling RNG, for experiment seed `seed`.
-pub fn frame_seed(seed: u64, i: usize) -> u64 {
-    sub_seed(seed, 21, i as u64)
 }

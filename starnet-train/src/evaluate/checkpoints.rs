@@ -3,13 +3,14 @@
 //! `out/step-NNNNNNNN/`, and for the run `run_eval.md`, `run_eval.json` and `run_eval_ap.png`
 //! (AP against training step).
 
-use crate::evaluate::{EvalOptions, evaluate};
+use super::split::{EvalOptions, evaluate};
+use crate::checkpoint::{StepCheckpoint, step_checkpoints};
+use crate::json::write_json;
 use crate::render::{LinePlot, Series};
-use crate::train::{StepCheckpoint, step_checkpoints};
+use crate::report::ReportFiles;
 use crate::trained::TrainedModel;
 use crate::{Result, TrainError};
 use serde::{Deserialize, Serialize};
-use starnet_data::io::atomic_write;
 use starnet_eval::{EvalReport, Table};
 use std::path::{Path, PathBuf};
 
@@ -71,8 +72,7 @@ pub fn evaluate_run(
             EvalOptions::of(cfg),
             Some(&dir),
         )?;
-        let json = serde_json::to_string_pretty(&report).expect("reports serialise");
-        atomic_write(&dir.join("eval.json"), json.as_bytes())?;
+        write_json(&dir.join("eval.json"), &report)?;
         let eval = CheckpointEval {
             step: c.step,
             checkpoint: c.path,
@@ -137,10 +137,13 @@ pub fn run_plot(evals: &[CheckpointEval]) -> LinePlot {
 
 /// Writes `run_eval.md`, `run_eval.json` and `run_eval_ap.png` into `out`.
 pub fn write_run_eval(out: &Path, evals: &[CheckpointEval]) -> Result<()> {
-    atomic_write(&out.join("run_eval.md"), run_table(evals).as_bytes())?;
-    let json = serde_json::to_string_pretty(evals).expect("evaluations serialise");
-    atomic_write(&out.join("run_eval.json"), json.as_bytes())?;
-    run_plot(evals).render()?.save_png(&out.join("run_eval_ap.png"))
+    ReportFiles {
+        stem: "run_eval",
+        table: run_table(evals),
+        data: evals,
+        plots: vec![("run_eval_ap", run_plot(evals))],
+    }
+    .write(out)
 }
 
 #[cfg(test)]

@@ -3,13 +3,13 @@
 //! sweep gets a table (`budget.md`, `budget.json`) and two plots: AP against GFLOP per frame with
 //! one curve per points value (`budget_gflop.png`) and AP against latency (`budget_latency.png`).
 
+use super::split::{EvalOptions, evaluate};
 use crate::Result;
 use crate::budget::Budget;
 use crate::detector::Detector;
-use crate::evaluate::{EvalOptions, evaluate};
-use crate::json::read_json;
+use crate::json::{read_json, write_json};
 use crate::render::{LinePlot, Series};
-use starnet_data::io::atomic_write;
+use crate::report::ReportFiles;
 use starnet_data::kitti::KittiDataset;
 use starnet_data::sampling::CenterTarget;
 use starnet_eval::EvalReport;
@@ -54,8 +54,7 @@ pub fn sweep(
         let dir = out.map(|o| o.join(budget_dir_name(b)));
         let report = evaluate(&detector.at_budget(*b), dataset, opts, dir.as_deref())?;
         if let Some(d) = &dir {
-            let json = serde_json::to_string_pretty(&report).expect("reports serialise");
-            atomic_write(&d.join("eval.json"), json.as_bytes())?;
+            write_json(&d.join("eval.json"), &report)?;
         }
         on_report(&report);
         reports.push(report);
@@ -156,13 +155,14 @@ pub fn budget_plots(reports: &[EvalReport]) -> [LinePlot; 2] {
 
 /// Writes `budget.md`, `budget.json`, `budget_gflop.png` and `budget_latency.png` into `out`.
 pub fn write_sweep(out: &Path, reports: &[EvalReport]) -> Result<()> {
-    atomic_write(&out.join("budget.md"), budget_table(reports).as_bytes())?;
-    let json = serde_json::to_string_pretty(reports).expect("reports serialise");
-    atomic_write(&out.join("budget.json"), json.as_bytes())?;
     let [gflop, latency] = budget_plots(reports);
-    gflop.render()?.save_png(&out.join("budget_gflop.png"))?;
-    latency.render()?.save_png(&out.join("budget_latency.png"))?;
-    Ok(())
+    ReportFiles {
+        stem: "budget",
+        table: budget_table(reports),
+        data: reports,
+        plots: vec![("budget_gflop", gflop), ("budget_latency", latency)],
+    }
+    .write(out)
 }
 
 /// Redraws a sweep's table and plots from its `budget.json` (e.g. after a plotting change).

@@ -1,0 +1,36 @@
+//! Every way of evaluating a model, in one place, each writing its report through
+//! [`crate::report::ReportFiles`]:
+//!
+//! | way | function | `starnet` | writes |
+//! |---|---|---|---|
+//! | a split at one budget | [`evaluate`] | `eval --checkpoint` | result files, `eval.json` |
+//! | a grid of budgets (figure 7) | [`sweep`] | `eval --centers A,B --points C,D` | per budget as above; `budget.*` |
+//! | every kept checkpoint of a run | [`evaluate_run`] | `eval --run` | per step as above; `run_eval.*` |
+//! | sequences with temporal seeding (table 4) | [`temporal_sweep`] | `eval --sequences` | `temporal.*` |
+//! | streamed over azimuth slices | [`evaluate_stream`] | `stream-eval` | `stream.*` |
+//! | a run's validation (either of the first and the last) | [`validate`] | `train` | `RUN/results/`, `RUN/eval.json` |
+//! | where the centers can reach objects (figure 5) | [`run_coverage`] | `coverage` | a plot |
+//!
+//! Frame `i` of a split samples its centers from [`crate::detector::frame_seed`]`(seed, i)` in every one of them,
+//! so the same config and seed give the same figures whichever way runs them.
+
+mod budgets;
+mod checkpoints;
+mod coverage;
+mod sequences;
+mod split;
+mod streams;
+mod validate;
+
+pub use budgets::{budget_dir_name, budget_grid, budget_plots, budget_table, replot_sweep, sweep, write_sweep};
+pub use checkpoints::{CheckpointEval, RunEval, evaluate_run, run_checkpoints, run_plot, run_table, write_run_eval};
+pub use coverage::{paper_coverage, run_coverage};
+pub use sequences::{
+    TemporalReport, evaluate_sequences, replot_temporal, temporal_plot, temporal_sweep, temporal_table, write_temporal,
+};
+pub use split::{EvalOptions, eval_report, evaluate};
+pub use streams::{
+    Latency, ModeReport, ModeReports, StreamGroundTruth, StreamReport, StreamRun, evaluate_stream, latency,
+    replot_stream, stream_plots, stream_runs, stream_tables, write_stream,
+};
+pub use validate::validate;
