@@ -3,7 +3,7 @@
 //! variable is not consulted: the device is the one this build was compiled for.
 
 use burn::prelude::Device;
-use serde::{Deserialize, Serialize};
+use serde_with::{DeserializeFromStr, SerializeDisplay};
 
 #[cfg(not(any(feature = "flex", feature = "ndarray")))]
 compile_error!("starnet-model needs a backend feature: `flex` (default), `x86-v4` or `ndarray`");
@@ -37,8 +37,7 @@ pub fn default_device() -> Device {
 /// discrete GPU (without it: wgpu's choice, the high-power adapter, or the one
 /// `CUBECL_WGPU_DEFAULT_DEVICE` names). The GPU choices need a build with the cargo feature of
 /// the same name; the fused StarNet kernels are flex's, so a GPU runs the composed operations.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(try_from = "String", into = "String")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, SerializeDisplay, DeserializeFromStr)]
 pub enum DeviceChoice {
     /// The flex CPU backend.
     #[default]
@@ -92,20 +91,6 @@ impl std::fmt::Display for DeviceChoice {
             Some(n) => write!(f, "{name}:{n}"),
             None => f.write_str(name),
         }
-    }
-}
-
-impl TryFrom<String> for DeviceChoice {
-    type Error = DeviceError;
-
-    fn try_from(s: String) -> Result<Self, DeviceError> {
-        s.parse()
-    }
-}
-
-impl From<DeviceChoice> for String {
-    fn from(d: DeviceChoice) -> String {
-        d.to_string()
     }
 }
 

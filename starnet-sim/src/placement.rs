@@ -16,6 +16,15 @@ use starnet_data::kitti::ObjectClass;
 use starnet_data::{Box3d, wrap_angle};
 use std::f32::consts::{FRAC_PI_2, PI};
 
+/// Which half of the scene an object is placed in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Half {
+    /// Ahead of the sensor, inside the camera's field of view (where KITTI labels objects).
+    InView,
+    /// Everywhere else: behind the sensor and beside the camera's view.
+    OutOfView,
+}
+
 /// Frames of KITTI's train split with 0, 1, … 17 cars (§2; the tail beyond 8 spread to make up
 /// the 392 remaining frames). Mean 3.84 cars per frame.
 const CAR_COUNT_HIST: [u32; 18] = [
@@ -117,12 +126,12 @@ impl<'a> Placer<'a> {
         }
     }
 
-    /// Places every object class on both sides of the sensor and returns the actors.
+    /// Places every object class in both halves of the scene and returns the actors.
     pub fn place_all(mut self, rng: &mut impl Rng) -> Vec<Actor> {
-        for front in [true, false] {
+        for half in [Half::InView, Half::OutOfView] {
             // Some cars end up hidden or unplaceable, so draw a few more than KITTI labels.
             for _ in 0..sample_car_count(rng) + (rng.random::<f32>() < 0.25) as usize {
-                self.place(ObjectClass::Car, front, rng);
+                self.place(ObjectClass::Car, half, rng);
             }
             // Trucks and seated people find fewer free slots: their means are raised likewise.
             for (class, mean) in [
@@ -132,7 +141,7 @@ impl<'a> Placer<'a> {
                 (ObjectClass::PersonSitting, 0.02),
             ] {
                 for _ in 0..poisson(mean, rng) {
-                    self.place(class, front, rng);
+                    self.place(class, half, rng);
                 }
             }
             // Far traffic beyond the labelled range: KITTI's DontCare regions (1.5 per frame).
@@ -142,33 +151,33 @@ impl<'a> Placer<'a> {
                 } else {
                     ObjectClass::Van
                 };
-                self.place_at(class, front, Some((FAR_TRAFFIC.0, FAR_TRAFFIC.1)), rng);
+                self.place_at(class, half, Some((FAR_TRAFFIC.0, FAR_TRAFFIC.1)), rng);
             }
             // Pedestrians come in groups: 26 % of frames have any, 2.27 on average then.
             if rng.random::<f32>() < 0.26 {
-                self.place_group(ObjectClass::Pedestrian, 1 + poisson(1.27, rng), front, rng);
+                self.place_group(ObjectClass::Pedestrian, 1 + poisson(1.27, rng), half, rng);
             }
             if rng.random::<f32>() < 0.14 {
-                self.place_group(ObjectClass::Cyclist, 1 + poisson(0.43, rng), front, rng);
+                self.place_group(ObjectClass::Cyclist, 1 + poisson(0.43, rng), half, rng);
             }
         }
         self.actors
     }
 
-    fn place_group(&mut self, class: ObjectClass, n: usize, front: bool, rng: &mut impl Rng) {
+    fn place_group(&mut self, class: ObjectClass, n: usize, half: Half, rng: &mut impl Rng) {
         for _ in 0..n {
-            self.place(class, front, rng);
+            self.place(class, half, rng);
         }
     }
 
-    fn place(&mut self, class: ObjectClass, front: bool, rng: &mut impl Rng) {
-        self.place_at(class, front, None, rng);
+    fn place(&mut self, class: ObjectClass, half: Half, rng: &mut impl Rng) {
+        self.place_at(class, half, None, rng);
     }
 
     /// Tries a few candidate poses for one object; gives up quietly on a crowded street (the
     /// count statistics already allow for it). A drawn distance is kept for ten slots before
     /// another is drawn, so crowded near slots do not push the distances outwards.
-    fn place_at(&mut self, class: ObjectClass, front: bool, range: Option<(f32, f32)>, rng: &mut impl Rng) {
+    fn place_at(&mut self, class: ObjectClass, half: Half, range: Option<(f32, f32)>, rng: &mut impl Rng) {
         let annotation = AnnotationMargin::sample(class, rng);
         let body = annotation.body(sample_size(class, rng));
         let mut distance = 0.0;
@@ -184,7 +193,7 @@ impl<'a> Placer<'a> {
                 ObjectClass::Cyclist => self.cyclist_pose(rng),
                 _ => self.vehicle_pose(class, rng),
             };
-            let Some(pose) = self.at_distance(pose, distance, front, rng) else {
+            let Some(pose) = self.at_distance(pose, distance, half, rng) else {
                 continue;
             };
             let parts = build_parts(class, body, rng);
@@ -230,7 +239,8 @@ impl<'a> Placer<'a> {
     }
 
     /// Moves a pose along the street (or along the crossing street) to the wanted distance.
-    fn at_distance(&self, mut pose: Pose, d: f32, front: bool, rng: &mut impl Rng) -> Option<Pose> {
+    fn at_distance(&self, mut pose: Pose, d: f32, half: Half, rng: &mut impl Rng) -> Option<Pose> {
+        let front = half == Half::InView;
         let sign = if front { 1.0 } else { -1.0 };
         if pose.on == Road::Crossing {
             // x fixed by the crossing street, distance sets y.

@@ -13,27 +13,7 @@
 //! as well as KITTI's; `starnet convert` ([`crate::convert`]) converts between the two.
 
 mod labels;
+mod layout;
 
 pub use labels::{CustomObject, parse_custom_labels, read_custom_labels, write_custom_labels};
-
-use std::path::{Path, PathBuf};
-
-/// The folder of the point clouds.
-pub const POINTS_DIR: &str = "points";
-/// The folder of the label files.
-pub const LABELS_DIR: &str = "labels";
-
-/// Whether `root` is in the custom layout: it has `points/` and no KITTI `training/`.
-pub fn is_custom_layout(root: &Path) -> bool {
-    root.join(POINTS_DIR).is_dir() && !root.join("training").is_dir()
-}
-
-/// `ROOT/points/{id}.npy`.
-pub fn points_path(root: &Path, id: &str) -> PathBuf {
-    root.join(POINTS_DIR).join(format!("{id}.npy"))
-}
-
-/// `ROOT/labels/{id}.txt`.
-pub fn labels_path(root: &Path, id: &str) -> PathBuf {
-    root.join(LABELS_DIR).join(format!("{id}.txt"))
-}
+pub use layout::{LABELS_DIR, POINTS_DIR, is_custom_layout, labels_path, points_path};

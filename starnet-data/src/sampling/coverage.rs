@@ -45,19 +45,15 @@ pub struct CoverageTable {
     pub objects: usize,
 }
 
-/// For each object, the index of the first center whose anchors cover it (`usize::MAX` if none).
-fn first_cover(centers: &[[f32; 3]], objects: &[(crate::Box3d, AnchorGrid)], iou: f32) -> Vec<usize> {
+/// For each object, the index of the first center whose anchors cover it, if one does.
+fn first_cover(centers: &[[f32; 3]], objects: &[(crate::Box3d, AnchorGrid)], iou: f32) -> Vec<Option<usize>> {
     objects
         .iter()
         .map(|(b, grid)| {
             let reach = b.bev_radius() + grid.extent * std::f32::consts::SQRT_2 + grid.max_radius();
-            centers
-                .iter()
-                .position(|c| {
-                    (c[0] - b.x).hypot(c[1] - b.y) <= reach
-                        && grid.anchors_around(*c).iter().any(|a| iou_bev(a, b) > iou)
-                })
-                .unwrap_or(usize::MAX)
+            centers.iter().position(|c| {
+                (c[0] - b.x).hypot(c[1] - b.y) <= reach && grid.anchors_around(*c).iter().any(|a| iou_bev(a, b) > iou)
+            })
         })
         .collect()
 }
@@ -89,7 +85,7 @@ pub fn coverage(dataset: &KittiDataset, cfg: &CoverageConfig, seed: u64) -> Resu
             let real = centers.valid.iter().filter(|v| **v).count();
             let first = first_cover(&centers.xyz[..real], &objects, cfg.iou);
             for (k, &n) in cfg.samples.iter().enumerate() {
-                local[s][k] = first.iter().filter(|&&i| i < n).count();
+                local[s][k] = first.iter().filter(|i| i.is_some_and(|i| i < n)).count();
             }
         }
         let mut t = tally.lock().expect("no panics while holding it");
@@ -149,9 +145,12 @@ mod tests {
     fn a_center_on_the_object_covers_it_a_far_one_does_not() {
         let car = Box3d::new(10.0, 5.0, -1.0, 3.9, 1.6, 1.5, 0.05);
         let objs = vec![(car, AnchorGrid::kitti_car())];
-        assert_eq!(first_cover(&[[50.0, 0.0, 0.0], [10.3, 5.2, 0.0]], &objs, 0.5), vec![1]);
-        assert_eq!(first_cover(&[[50.0, 0.0, 0.0]], &objs, 0.5), vec![usize::MAX]);
+        assert_eq!(
+            first_cover(&[[50.0, 0.0, 0.0], [10.3, 5.2, 0.0]], &objs, 0.5),
+            vec![Some(1)]
+        );
+        assert_eq!(first_cover(&[[50.0, 0.0, 0.0]], &objs, 0.5), vec![None]);
         // 1.5 m off: the grid's ±1.294 m offsets still reach it.
-        assert_eq!(first_cover(&[[11.5, 5.0, 0.0]], &objs, 0.5), vec![0]);
+        assert_eq!(first_cover(&[[11.5, 5.0, 0.0]], &objs, 0.5), vec![Some(0)]);
     }
 }

@@ -3,11 +3,10 @@
 //! experiment: near objects keep their full coverage while the compute falls with N.
 
 use super::Centers;
-use serde::{Deserialize, Serialize};
+use serde_with::{DeserializeFromStr, SerializeDisplay};
 
 /// Which of the sampled centers the model sees.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(try_from = "String", into = "String")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, SerializeDisplay, DeserializeFromStr)]
 pub enum CenterTarget {
     /// Every sampled center.
     #[default]
@@ -59,19 +58,6 @@ impl std::str::FromStr for CenterTarget {
             Some(("nearest", n)) => n.parse().ok().filter(|&n| n > 0).map(Self::Nearest).ok_or_else(bad),
             _ => Err(bad()),
         }
-    }
-}
-
-impl TryFrom<String> for CenterTarget {
-    type Error = String;
-    fn try_from(s: String) -> Result<Self, String> {
-        s.parse()
-    }
-}
-
-impl From<CenterTarget> for String {
-    fn from(t: CenterTarget) -> String {
-        t.to_string()
     }
 }
 

@@ -297,6 +297,6 @@ mod tests {
     }
 
     fn op_applies(out: &ModelOutput, t: &LossTargets, cfg: &LossConfig) -> bool {
-        loss_terms(out, t, &super::super::kernel_config(cfg)).is_some()
+        loss_terms(out, t, &crate::loss::starnet_loss::kernel_config(cfg)).is_some()
     }
 }

@@ -6,7 +6,7 @@
 use super::fused::kernel::{BlockStats, BnStats};
 use super::fused::op::{self, ParamTensors};
 use super::row_layout::{self, RowLayout};
-use super::{MaskedBatchNorm, MaskedBatchNormConfig, linear};
+use super::{Bias, MaskedBatchNorm, MaskedBatchNormConfig, linear};
 use burn::module::Module;
 use burn::nn::Linear;
 use burn::prelude::*;
@@ -74,9 +74,9 @@ impl StarNetBlockConfig {
         let bn = |width: usize| MaskedBatchNormConfig::new(width).with_rows(self.rows).init(device);
         StarNetBlock {
             bn1: bn(2 * self.d_input),
-            fc1: linear(2 * self.d_input, self.d_hidden, false, device),
+            fc1: linear(2 * self.d_input, self.d_hidden, Bias::Omitted, device),
             bn2: bn(self.d_hidden),
-            fc2: linear(self.d_hidden, self.d_output, false, device),
+            fc2: linear(self.d_hidden, self.d_output, Bias::Omitted, device),
             fused: self.fused,
             rows: self.rows,
         }

@@ -4,7 +4,7 @@
 
 use super::fused::stack_op::{self, StackTensors};
 use super::row_layout::{self, RowLayout};
-use super::{MaskedBatchNorm, StarNetBlock, StarNetBlockConfig, linear};
+use super::{Bias, MaskedBatchNorm, StarNetBlock, StarNetBlockConfig, linear};
 use burn::module::Module;
 use burn::nn::Linear;
 use burn::prelude::*;
@@ -62,7 +62,7 @@ impl FeaturizerConfig {
             })
             .collect();
         Featurizer {
-            fc0: linear(self.d_input, self.d_fc0, true, device),
+            fc0: linear(self.d_input, self.d_fc0, Bias::Zero, device),
             blocks,
             rows: self.rows,
         }

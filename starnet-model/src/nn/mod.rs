@@ -5,6 +5,7 @@
 mod block;
 mod featurizer;
 pub mod fused;
+mod linear;
 mod masked_bn;
 pub mod row_layout;
 mod slice_lstm;
@@ -12,26 +13,8 @@ mod starnet;
 
 pub use block::{StarNetBlock, StarNetBlockConfig, masked_max, masked_mean};
 pub use featurizer::{Featurizer, FeaturizerConfig};
+pub(crate) use linear::{Bias, linear};
 pub use masked_bn::{MaskedBatchNorm, MaskedBatchNormConfig, RunningStats};
 pub use row_layout::{RowGroups, RowLayout};
 pub use slice_lstm::{SliceLstm, SliceLstmConfig, SliceState};
 pub use starnet::{ModelInput, ModelOutput, StarNet, StarNetConfig};
-
-use burn::nn::{Initializer, Linear, LinearConfig};
-use burn::prelude::Device;
-
-/// A linear layer with lingvo's initialisation: Kaiming-uniform weights with bound √(6 / fan_in)
-/// (gain √2) and, if it has one, a zero bias.
-pub(crate) fn linear(d_in: usize, d_out: usize, bias: bool, device: &Device) -> Linear {
-    let mut l = LinearConfig::new(d_in, d_out)
-        .with_bias(bias)
-        .with_initializer(Initializer::KaimingUniform {
-            gain: std::f64::consts::SQRT_2,
-            fan_out_only: false,
-        })
-        .init(device);
-    if bias {
-        l.bias = Some(Initializer::Zeros.init([d_out], device));
-    }
-    l
-}

@@ -173,7 +173,7 @@ mod tests {
         let dev = default_device();
         let values: Vec<f32> = (0..24 * 5).map(|v| v as f32 / 7.0).collect();
         let x = Tensor::<1>::from_floats(values.as_slice(), &dev).reshape([24, 5]);
-        let layer = crate::nn::linear(5, 3, true, &dev);
+        let layer = crate::nn::linear(5, 3, crate::nn::Bias::Zero, &dev);
         let flat = layer.forward(x.clone());
         let grouped = linear(&layer, x.clone().reshape([4, 6, 5])).reshape([24, 3]);
         let diff: f32 = (flat - grouped).abs().max().into_scalar();

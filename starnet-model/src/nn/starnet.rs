@@ -9,8 +9,8 @@
 use super::fused::head_op::{self, HeadTensors};
 use super::row_layout::{self, RowLayout};
 use super::{
-    Featurizer, FeaturizerConfig, MaskedBatchNorm, MaskedBatchNormConfig, RunningStats, SliceLstm, SliceLstmConfig,
-    SliceState, linear,
+    Bias, Featurizer, FeaturizerConfig, MaskedBatchNorm, MaskedBatchNormConfig, RunningStats, SliceLstm,
+    SliceLstmConfig, SliceState, linear,
 };
 use burn::module::{Module, Param};
 use burn::nn::Linear;
@@ -101,19 +101,19 @@ impl StarNetConfig {
         let cell = self.featurizer.cell_dim();
         let offsets = self.anchors.grid * self.anchors.grid;
         let per = self.anchors_per_offset();
-        let mut cls_head = linear(self.d_offset, per * self.num_classes, true, device);
+        let mut cls_head = linear(self.d_offset, per * self.num_classes, Bias::Zero, device);
         cls_head.bias = Some(Param::from_tensor(Tensor::full(
             [per * self.num_classes],
             CLASS_PRIOR_LOGIT,
             device,
         )));
-        let mut box_head = linear(self.d_offset, per * 7, false, device);
+        let mut box_head = linear(self.d_offset, per * 7, Bias::Omitted, device);
         box_head.weight = Param::from_tensor(Tensor::zeros([self.d_offset, per * 7], device));
         let dir_head = self
             .direction_classifier
-            .then(|| linear(self.d_offset, per * 2, true, device));
+            .then(|| linear(self.d_offset, per * 2, Bias::Zero, device));
         let size_head = self.shared_size.then(|| {
-            let mut h = linear(cell, per * 3, false, device);
+            let mut h = linear(cell, per * 3, Bias::Omitted, device);
             h.weight = Param::from_tensor(Tensor::zeros([cell, per * 3], device));
             h
         });
@@ -122,7 +122,7 @@ impl StarNetConfig {
             proj_bn: MaskedBatchNormConfig::new(cell)
                 .with_rows(self.featurizer.rows)
                 .init(device),
-            proj: linear(cell, offsets * self.d_offset, true, device),
+            proj: linear(cell, offsets * self.d_offset, Bias::Zero, device),
             cls_head,
             box_head,
             dir_head,

@@ -2,13 +2,13 @@
 //! they seek they land.
 
 use serde::{Deserialize, Serialize};
+use serde_with::{DeserializeFromStr, SerializeDisplay};
 use starnet_data::Box3d;
 use starnet_data::geometry::Pose;
 use starnet_model::nms::Detection;
 
 /// How many of a frame's centers come from the previous frame's detections.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(try_from = "String", into = "String")]
+#[derive(Debug, Clone, Copy, PartialEq, SerializeDisplay, DeserializeFromStr)]
 pub enum PrevCenters {
     /// K centers (at most N); written `K`.
     Count(usize),
@@ -34,19 +34,6 @@ impl std::str::FromStr for PrevCenters {
             Some(p) => p.parse().ok().filter(|&p| p <= 100).map(Self::Percent).ok_or_else(bad),
             None => s.parse().map(Self::Count).map_err(|_| bad()),
         }
-    }
-}
-
-impl TryFrom<String> for PrevCenters {
-    type Error = String;
-    fn try_from(s: String) -> Result<Self, String> {
-        s.parse()
-    }
-}
-
-impl From<PrevCenters> for String {
-    fn from(p: PrevCenters) -> String {
-        p.to_string()
     }
 }
 

@@ -1,6 +1,7 @@
 //! Training and evaluating a detector from an experiment config, as pieces a custom loop can
 //! assemble: [`RunFolder`] (config, checkpoints), [`train_loader`] (prepared batches in
-//! threads), [`Trainer`] (one optimisation step), [`TrainLog`], [`Schedule`] and [`validate`];
+//! threads), [`Trainer`] (one optimisation step), [`TrainLog`], [`Schedule`] and
+//! [`crate::evaluate::validate`];
 //! [`train`] is the loop `starnet train` runs.
 //!
 //! A custom loop (a few steps on the simulator data; `no_run`: it needs `data/sim`):
@@ -8,12 +9,13 @@
 //! ```no_run
 //! use starnet_train::config::load_config;
 //! use starnet_train::distributed::Shard;
-//! use starnet_train::train::{RunFolder, Schedule, Trainer, ensure_data, paste_database, train_loader, validate};
+//! use starnet_train::evaluate::validate;
+//! use starnet_train::train::{Resume, RunFolder, Schedule, Trainer, ensure_data, paste_database, train_loader};
 //! use std::path::Path;
 //!
 //! let cfg = load_config(Path::new("configs/quickstart.toml"), &["train.epochs=1".into()])?;
 //! ensure_data(&cfg)?;
-//! let run = RunFolder::create(Path::new("runs/custom"), &cfg, false)?;
+//! let run = RunFolder::create(Path::new("runs/custom"), &cfg, Resume::IfSameConfig)?;
 //! let train_set = cfg.dataset(&cfg.data.train_split)?;
 //! let schedule = Schedule::new(&cfg.train, train_set.ids().len(), Some(20));
 //! let device = starnet_model::backend::default_device().autodiff();
@@ -52,4 +54,4 @@ pub use run_lock::{LOCK_FILE, RunLock};
 pub use schedule::{Schedule, lr_multiplier};
 pub use snapshot::{Restored, load_checkpoint, save_checkpoint};
 pub use step::{Featurizer, StepLosses, Trainer};
-pub use trainer::{OnTie, RunFolder, TrainOptions, TrainSummary, end_epoch, run_dir_for, train};
+pub use trainer::{OnTie, Resume, RunEnd, RunFolder, TrainOptions, TrainSummary, end_epoch, run_dir_for, train};

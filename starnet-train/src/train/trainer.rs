@@ -32,8 +32,8 @@ use std::time::Instant;
 /// How to run.
 #[derive(Debug, Clone, Default)]
 pub struct TrainOptions {
-    /// Continue from the newest checkpoint of the run folder.
-    pub resume: bool,
+    /// What to do with a run folder that already holds checkpoints.
+    pub resume: Resume,
     /// Stop after this many steps in total (for tests and smoke runs).
     pub max_steps: Option<u64>,
     /// Set by a Ctrl-C handler: save and stop at the next step (every replica, when any is
@@ -53,10 +53,30 @@ pub struct TrainSummary {
     pub run_dir: PathBuf,
     /// Steps done.
     pub steps: u64,
-    /// Whether it stopped early on request.
-    pub interrupted: bool,
+    /// Whether the schedule ran to its end.
+    pub end: RunEnd,
     /// The final evaluation on the validation split.
     pub eval: Option<EvalReport>,
+}
+
+/// What [`RunFolder::create`] does with a folder that already holds checkpoints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Resume {
+    /// Continue from its newest checkpoint, whatever config wrote it (`--resume`).
+    Always,
+    /// Continue only when its `config.toml` is this config (the same command run again after a
+    /// kill continues, as OpenPCDet's does); refuse another config.
+    #[default]
+    IfSameConfig,
+}
+
+/// How a training run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunEnd {
+    /// The schedule ran to its last step.
+    Finished,
+    /// Stopped before it (Ctrl-C or `--max-steps`): a checkpoint was saved; `--resume` continues.
+    Stopped,
 }
 
 /// The run folder of a config: `{run_root}/{file stem}`.
@@ -88,20 +108,19 @@ pub struct RunFolder {
 
 impl RunFolder {
     /// Takes the writer's lock of `dir` ([`RunLock`]: a folder another trainer is writing is
-    /// refused) and prepares it for `cfg`. A folder holding checkpoints is resumed when
-    /// `resume` says so or when its `config.toml` is `cfg` (the same command run again after a
-    /// kill continues, as OpenPCDet's does); with another config it is refused.
-    pub fn create(dir: &Path, cfg: &ExperimentConfig, resume: bool) -> Result<Self> {
+    /// refused) and prepares it for `cfg`. A folder holding checkpoints is continued or refused
+    /// as `resume` says.
+    pub fn create(dir: &Path, cfg: &ExperimentConfig, resume: Resume) -> Result<Self> {
         Self::create_locked(dir, cfg, resume, RunLock::acquire(dir)?)
     }
 
     /// [`RunFolder::create`] with the lock of `dir` already held.
-    pub fn create_locked(dir: &Path, cfg: &ExperimentConfig, resume: bool, lock: RunLock) -> Result<Self> {
+    pub fn create_locked(dir: &Path, cfg: &ExperimentConfig, resume: Resume, lock: RunLock) -> Result<Self> {
         let checkpoints = dir.join("checkpoints");
         recover_checkpoints(&checkpoints)?;
         let resume_from = latest_checkpoint(&checkpoints);
         let config = to_toml(cfg);
-        if resume_from.is_some() && !resume {
+        if resume_from.is_some() && resume == Resume::IfSameConfig {
             let saved = std::fs::read_to_string(dir.join("config.toml")).unwrap_or_default();
             if saved != config {
                 return Err(TrainError::RunExists { dir: dir.to_path_buf() });
@@ -209,7 +228,12 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
     }
     drop(task);
     let Some(mut log) = log else {
-        return Ok(summary(&run, &trainer, trainer.state.step < schedule.end, None));
+        let end = if trainer.state.step < schedule.end {
+            RunEnd::Stopped
+        } else {
+            RunEnd::Finished
+        };
+        return Ok(summary(&run, &trainer, end, None));
     };
     log.flush()?;
     finish(cfg, &run, trainer, &schedule, &val_set)
@@ -218,7 +242,7 @@ pub fn train(cfg: &ExperimentConfig, run_dir: &Path, opts: &TrainOptions) -> Res
 /// The run folder, ready on every member: replica 0 takes the folder's lock first (a second
 /// trainer is refused before it touches anything), generates the data when absent and
 /// prepares the folder; the others wait for it, then find the checkpoint to resume from.
-fn prepare_run(cfg: &ExperimentConfig, run_dir: &Path, resume: bool, role: &Role) -> Result<RunFolder> {
+fn prepare_run(cfg: &ExperimentConfig, run_dir: &Path, resume: Resume, role: &Role) -> Result<RunFolder> {
     let run = if role.writes() {
         let lock = RunLock::acquire(run_dir)?;
         ensure_data(cfg)?;
@@ -322,12 +346,12 @@ fn finish(
             "stopped at step {}: checkpoint saved, continue with --resume",
             trainer.state.step
         ));
-        return Ok(summary(run, &trainer, true, None));
+        return Ok(summary(run, &trainer, RunEnd::Stopped, None));
     }
     let report = validate(&trainer.eval_model(), cfg, val_set, Some(&run.dir.join("results")))?;
     run.keep_best(&mut trainer, report.headline(), OnTie::TakeNew)?;
     write_json(&run.dir.join("eval.json"), &report)?;
-    Ok(summary(run, &trainer, false, Some(report)))
+    Ok(summary(run, &trainer, RunEnd::Finished, Some(report)))
 }
 
 /// The close of an epoch: the validation when due (keeping `best`), then the step checkpoint.
@@ -351,11 +375,11 @@ pub fn end_epoch(
     run.save_step(trainer, cfg.train.keep_last)
 }
 
-fn summary(run: &RunFolder, trainer: &Trainer, interrupted: bool, eval: Option<EvalReport>) -> TrainSummary {
+fn summary(run: &RunFolder, trainer: &Trainer, end: RunEnd, eval: Option<EvalReport>) -> TrainSummary {
     TrainSummary {
         run_dir: run.dir.clone(),
         steps: trainer.state.step,
-        interrupted,
+        end,
         eval,
     }
 }

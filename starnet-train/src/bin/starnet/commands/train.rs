@@ -3,7 +3,7 @@
 use crate::distributed::{Distributed, abort_job, join_world};
 use anyhow::Context;
 use clap::Args;
-use starnet_train::train::{InitSource, TrainOptions, run_dir_for, train};
+use starnet_train::train::{InitSource, Resume, TrainOptions, run_dir_for, train};
 use starnet_train::trained::TrainedModel;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -68,7 +68,11 @@ impl Train {
             })
             .transpose()?;
         let opts = TrainOptions {
-            resume: self.resume,
+            resume: if self.resume {
+                Resume::Always
+            } else {
+                Resume::IfSameConfig
+            },
             max_steps: self.max_steps,
             stop: Some(stop),
             replicas: world
