@@ -76,12 +76,12 @@ fn perturbed(ds: &KittiDataset, id: &str) -> Vec<Detection> {
         .labelled_boxes()
         .into_iter()
         .filter_map(|(o, mut b)| {
-            let class = CLASSES.iter().position(|&c| c == o.class)?;
-            b.x += 0.3 * (class as f32 + 1.0);
+            let k = CLASSES.iter().position(|&c| c == o.class)?;
+            b.x += 0.3 * (k as f32 + 1.0);
             b.dx *= 0.93;
             Some(Detection {
                 b,
-                class,
+                class: o.class,
                 score: 0.4 + 0.01 * b.dx,
             })
         })
@@ -100,7 +100,7 @@ fn detect_json_and_kitti_lines_of_the_same_boxes_score_alike() {
         // As `starnet detect` writes them: the LiDAR boxes as JSON, the projected ones as lines.
         let lines: Vec<KittiObject> = dets
             .iter()
-            .filter_map(|d| to_kitti(d, &CLASSES, &frame.calib, frame.image_size))
+            .filter_map(|d| to_kitti(d, &frame.calib, frame.image_size))
             .collect();
         write_results(&dir.path().join(format!("{id}.txt")), &lines).unwrap();
         let sweep = SweepDetections {
@@ -111,7 +111,7 @@ fn detect_json_and_kitti_lines_of_the_same_boxes_score_alike() {
             detections: dets
                 .iter()
                 .map(|d| DetectedBox {
-                    class: CLASSES[d.class],
+                    class: d.class,
                     score: d.score,
                     b: d.b.to_array(),
                 })

@@ -41,7 +41,7 @@ pub fn kitti_frames(
             let detections = match result {
                 FrameResults::Kitti(objects) => of_classes(&objects, &classes),
                 FrameResults::Detect(sweep) => {
-                    written_results(&detections_of(&sweep, &classes), &classes, &a.calib, a.image_size)?
+                    written_results(&detections_of(&sweep, &classes), &a.calib, a.image_size)?
                 }
             };
             Ok(KittiFrame {

@@ -242,18 +242,16 @@ pub(crate) fn camera_only(name: String) -> EvalError {
     }
 }
 
-/// A sweep's boxes of `classes` as detections whose class indexes `classes`.
+/// A sweep's boxes of `classes` as detections.
 pub(crate) fn detections_of(sweep: &SweepDetections, classes: &[ObjectClass]) -> Vec<Detection> {
     sweep
         .detections
         .iter()
-        .filter_map(|d| {
-            let class = classes.iter().position(|&c| c == d.class)?;
-            Some(Detection {
-                b: Box3d::from_array(d.b),
-                class,
-                score: d.score,
-            })
+        .filter(|d| classes.contains(&d.class))
+        .map(|d| Detection {
+            b: Box3d::from_array(d.b),
+            class: d.class,
+            score: d.score,
         })
         .collect()
 }

@@ -131,11 +131,11 @@ impl std::fmt::Display for Scores {
 
 /// A detection as a KITTI result line; `None` when its box does not project into image 2
 /// (the KITTI evaluation needs the 2D box).
-pub fn to_kitti(d: &Detection, classes: &[ObjectClass], calib: &Calib, image: ImageSize) -> Option<KittiObject> {
+pub fn to_kitti(d: &Detection, calib: &Calib, image: ImageSize) -> Option<KittiObject> {
     let cam = calib.box_to_label(&d.b);
     let bbox = calib.image_bbox(&cam, image)?;
     Some(KittiObject {
-        class: classes[d.class],
+        class: d.class,
         truncated: -1.0,
         occluded: -1,
         alpha: observation_angle(&cam),
@@ -153,15 +153,10 @@ pub fn as_written(o: &KittiObject) -> Result<KittiObject> {
 
 /// `detections` (LiDAR frame) as the KITTI result lines that hold them: those that project
 /// into the image, as read back from their lines.
-pub(crate) fn written_results(
-    detections: &[Detection],
-    classes: &[ObjectClass],
-    calib: &Calib,
-    image: ImageSize,
-) -> Result<Vec<KittiObject>> {
+pub(crate) fn written_results(detections: &[Detection], calib: &Calib, image: ImageSize) -> Result<Vec<KittiObject>> {
     detections
         .iter()
-        .filter_map(|d| to_kitti(d, classes, calib, image))
+        .filter_map(|d| to_kitti(d, calib, image))
         .map(|o| as_written(&o))
         .collect()
 }
@@ -202,7 +197,7 @@ pub struct Scorer<'a> {
 
 impl<'a> Scorer<'a> {
     /// Scores `classes` against `labels`; writes `{id}.txt` result files to `results` when
-    /// given. A detection's class index names an entry of `classes`.
+    /// given. Detections of a class outside `classes` are written but not scored.
     pub fn new(classes: &'a [ObjectClass], labels: LabelSource, results: Option<&'a Path>) -> Self {
         Self {
             classes,
@@ -218,14 +213,14 @@ impl<'a> Scorer<'a> {
     /// Adds a frame and its final detections (LiDAR frame). In camera view only those that
     /// project into the image count, as their result lines hold them.
     pub fn add(&mut self, frame: Frame, detections: &[Detection]) -> Result<()> {
-        let (classes, calib, image) = (self.classes, &frame.calib, frame.image_size);
-        let written = written_results(detections, classes, calib, image)?;
+        let (calib, image) = (&frame.calib, frame.image_size);
+        let written = written_results(detections, calib, image)?;
         let lidar = match self.camera_view {
             true => self.lidar_of(&written, calib),
             false => detections
                 .iter()
                 .map(|d| WaymoDetection {
-                    class: classes[d.class],
+                    class: d.class,
                     b: d.b,
                     score: d.score,
                 })

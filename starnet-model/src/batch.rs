@@ -163,15 +163,19 @@ pub fn decode_detections(
     for ci in (0..c).filter(|&ci| frame.centers.valid[ci]) {
         for ai in 0..a {
             let n = ci * a + ai;
-            for class in 0..k {
-                let score = 1.0 / (1.0 + (-logits[n * k + class]).exp());
-                if cfg.per_class.get(class).is_some_and(|t| score >= t.score) {
+            for (ki, t) in cfg.per_class.iter().enumerate().take(k) {
+                let score = 1.0 / (1.0 + (-logits[n * k + ki]).exp());
+                if score >= t.score {
                     let r: [f32; 7] = res[n * 7..n * 7 + 7].try_into().expect("7 residuals");
                     let mut b = decode(&r, &anchors[n]);
                     if let Some(f) = &second_bin {
                         b.heading = with_direction(b.heading, usize::from(f[n]));
                     }
-                    dets.push(Detection { b, class, score });
+                    dets.push(Detection {
+                        b,
+                        class: t.class,
+                        score,
+                    });
                 }
             }
         }

@@ -81,6 +81,7 @@ fn small_model_overfits_one_frame_and_recovers_its_cars() {
     let out = eval.forward(batch.input);
     let nms = NmsConfig {
         per_class: vec![ClassNms {
+            class: ObjectClass::Car,
             iou: 0.1,
             score: 0.3,
             vote_iou: None,

@@ -111,11 +111,11 @@ pub fn detect_sweep(
     let kitti = calibrated.then(|| {
         detections
             .iter()
-            .filter_map(|d| to_kitti(d, &detector.classes, &frame.calib, frame.image_size))
+            .filter_map(|d| to_kitti(d, &frame.calib, frame.image_size))
             .collect()
     });
     let boxes = detections.iter().map(|d| DetectedBox {
-        class: detector.classes[d.class],
+        class: d.class,
         score: d.score,
         b: d.b.to_array(),
     });

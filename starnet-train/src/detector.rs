@@ -15,7 +15,7 @@
 //! for (i, id) in val.ids().iter().enumerate() {
 //!     let frame = val.load(id)?;
 //!     for d in detector.detect(&frame, i as u64) {
-//!         println!("{id} {} {:.2} {:?}", detector.classes[d.class], d.score, d.b.to_array());
+//!         println!("{id} {} {:.2} {:?}", d.class, d.score, d.b.to_array());
 //!     }
 //! }
 //! # Ok::<(), starnet_train::TrainError>(())

@@ -1,6 +1,7 @@
 //! A scored box: what a detector outputs and what the metrics score.
 
 use super::Box3d;
+use crate::class::ObjectClass;
 use serde::{Deserialize, Serialize};
 
 /// A scored box.
@@ -8,8 +9,8 @@ use serde::{Deserialize, Serialize};
 pub struct Detection {
     /// The box, LiDAR frame.
     pub b: Box3d,
-    /// Class index.
-    pub class: usize,
+    /// The class.
+    pub class: ObjectClass,
     /// Score in [0, 1].
     pub score: f32,
 }

@@ -35,8 +35,9 @@ impl DeferredNms {
         cfg: &NmsConfig,
         settled: &dyn Fn(&Detection) -> bool,
     ) -> Vec<Detection> {
-        let clash =
-            |a: &Detection, b: &Detection| a.class == b.class && iou_3d(&a.b, &b.b) > cfg.per_class[a.class].iou;
+        let clash = |a: &Detection, b: &Detection| {
+            a.class == b.class && cfg.of(a.class).is_some_and(|c| iou_3d(&a.b, &b.b) > c.iou)
+        };
         let emitted = &self.emitted;
         let fresh = dets
             .iter()
@@ -99,11 +100,12 @@ mod tests {
     use super::super::{ClassNms, nms};
     use super::*;
     use starnet_data::Box3d;
+    use starnet_data::class::ObjectClass;
 
     fn det(x: f32, score: f32) -> Detection {
         Detection {
             b: Box3d::new(x, 0.0, 0.0, 4.0, 2.0, 1.5, 0.0),
-            class: 0,
+            class: ObjectClass::Car,
             score,
         }
     }
@@ -111,6 +113,7 @@ mod tests {
     fn cfg() -> NmsConfig {
         NmsConfig {
             per_class: vec![ClassNms {
+                class: ObjectClass::Car,
                 iou: 0.1,
                 score: 0.05,
                 vote_iou: Some(0.3),
@@ -166,6 +169,7 @@ mod tests {
         let (b, c, a, f) = (det(0.0, 0.5), det(1.8, 0.6), det(3.5, 0.8), det(5.0, 0.9));
         let cfg = NmsConfig {
             per_class: vec![ClassNms {
+                class: ObjectClass::Car,
                 iou: 0.25,
                 score: 0.05,
                 vote_iou: None,

@@ -4,6 +4,7 @@
 use super::Detection;
 use serde::{Deserialize, Serialize};
 use starnet_data::Box3d;
+use starnet_data::class::ObjectClass;
 use starnet_data::geometry::{iou_3d, wrap_angle};
 use std::f32::consts::PI;
 
@@ -11,6 +12,8 @@ use std::f32::consts::PI;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ClassNms {
+    /// The class these thresholds are for.
+    pub class: ObjectClass,
     /// A box is suppressed by a kept box of its class with 3D IoU above this.
     pub iou: f32,
     /// Boxes scoring below this are dropped first.
@@ -25,10 +28,18 @@ pub struct ClassNms {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NmsConfig {
-    /// Per class index.
+    /// Per class, in the order of the model's class scores (a box of a class without an entry
+    /// is dropped).
     pub per_class: Vec<ClassNms>,
     /// At most this many boxes are kept, best scores first (512).
     pub max_boxes: usize,
+}
+
+impl NmsConfig {
+    /// The thresholds of `class`, if it has any.
+    pub fn of(&self, class: ObjectClass) -> Option<&ClassNms> {
+        self.per_class.iter().find(|c| c.class == class)
+    }
 }
 
 /// Greedy per-class NMS: boxes are taken best score first (ties by input order) and kept unless
@@ -62,7 +73,7 @@ pub fn nms_after(earlier: &[Detection], dets: &[Detection], cfg: &NmsConfig, pre
             break;
         }
         let d = dets[i];
-        let thr = cfg.per_class[d.class].iou;
+        let thr = cfg.of(d.class).map_or(f32::INFINITY, |c| c.iou);
         let clash = |k: &Detection| k.class == d.class && iou_3d(&k.b, &d.b) > thr;
         let outranks = |e: &Detection| precedence == Precedence::Arrival || e.score >= d.score;
         let before = suppressors.len();
@@ -114,12 +125,12 @@ pub fn vote(kept: &Detection, candidates: &[Detection], min_iou: f32) -> Box3d {
 
 /// Whether `d` is of a configured class and scores at least its threshold.
 pub(crate) fn is_candidate(d: &Detection, cfg: &NmsConfig) -> bool {
-    cfg.per_class.get(d.class).is_some_and(|c| d.score >= c.score)
+    cfg.of(d.class).is_some_and(|c| d.score >= c.score)
 }
 
 /// `kept` after box voting with `voters` ([`vote`]), when its class votes.
 pub(crate) fn voted(mut kept: Detection, voters: &[Detection], cfg: &NmsConfig) -> Detection {
-    if let Some(min_iou) = cfg.per_class[kept.class].vote_iou {
+    if let Some(min_iou) = cfg.of(kept.class).and_then(|c| c.vote_iou) {
         let same_class: Vec<Detection> = voters.iter().copied().filter(|d| d.class == kept.class).collect();
         kept.b = vote(&kept, &same_class, min_iou);
     }

@@ -16,7 +16,7 @@ pub enum Emission {
     /// `settled` says which) waits for that slice and is decided with its candidates, as global
     /// NMS would decide it; the others at once. Costs the waiting boxes one slice of latency.
     Settled,
-    /// Global NMS, streamed ([`DeferredNms`]): every candidate waits, however many slices it
+    /// Global NMS, streamed ([`super::DeferredNms`]): every candidate waits, however many slices it
     /// takes, until no later box can overlap the box NMS keeps for it; then that box is
     /// emitted, voted with its candidates, as global NMS over the sweep would. For centers that
     /// lag the laser ([`Self::Settled`] decides after one slice). Ignores the memory and the

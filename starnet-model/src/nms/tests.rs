@@ -2,27 +2,31 @@
 
 use super::*;
 use starnet_data::Box3d;
+use starnet_data::class::ObjectClass;
 use starnet_data::geometry::{iou_3d, wrap_angle};
 use std::f32::consts::PI;
+
+/// The classes `det` and `cfg` number 0 and 1.
+const CLASSES: [ObjectClass; 2] = [ObjectClass::Car, ObjectClass::Pedestrian];
 
 fn det(x: f32, class: usize, score: f32) -> Detection {
     Detection {
         b: Box3d::new(x, 0.0, -1.0, 4.0, 1.6, 1.5, 0.0),
-        class,
+        class: CLASSES[class],
         score,
     }
 }
 
 fn cfg(max: usize) -> NmsConfig {
     NmsConfig {
-        per_class: vec![
-            ClassNms {
+        per_class: CLASSES
+            .map(|class| ClassNms {
+                class,
                 iou: 0.1,
                 score: 0.2,
-                vote_iou: None
-            };
-            2
-        ],
+                vote_iou: None,
+            })
+            .to_vec(),
         max_boxes: max,
     }
 }
@@ -65,7 +69,7 @@ fn voting_averages_the_overlapping_candidates_by_score() {
 fn voting_averages_headings_as_axes_and_takes_the_majority_direction() {
     let at = |heading: f32, score: f32| Detection {
         b: Box3d::new(0.0, 0.0, -1.0, 4.0, 1.6, 1.5, wrap_angle(heading)),
-        class: 0,
+        class: ObjectClass::Car,
         score,
     };
     let kept = at(0.1, 0.5);
@@ -246,13 +250,13 @@ fn nms_in_arrival_order(slices: &[Vec<Detection>], cfg: &NmsConfig) -> Vec<Detec
     for slice in slices {
         let mut order: Vec<&Detection> = slice
             .iter()
-            .filter(|d| d.score >= cfg.per_class[d.class].score)
+            .filter(|d| d.score >= cfg.of(d.class).unwrap().score)
             .collect();
         order.sort_by(|a, b| b.score.total_cmp(&a.score));
         for d in order {
             if kept
                 .iter()
-                .all(|k| k.class != d.class || iou_3d(&k.b, &d.b) <= cfg.per_class[d.class].iou)
+                .all(|k| k.class != d.class || iou_3d(&k.b, &d.b) <= cfg.of(d.class).unwrap().iou)
             {
                 kept.push(*d);
             }
@@ -283,7 +287,7 @@ proptest::proptest! {
             .iter()
             .map(|&(x, y, dx, turn, back, score)| Detection {
                 b: Box3d::new(x, y, -1.0, dx, 1.6, 1.5, wrap_angle(0.2 + turn + if back { PI } else { 0.0 })),
-                class: 0,
+                class: ObjectClass::Car,
                 score,
             })
             .collect();
@@ -347,7 +351,7 @@ proptest::proptest! {
         };
         for (s, slice) in slices.iter().enumerate() {
             let clash = |d: &Detection, e: &Detection| e.class == d.class && iou_3d(&e.b, &d.b) > c.per_class[0].iou;
-            for d in slice.iter().filter(|d| d.score >= c.per_class[d.class].score) {
+            for d in slice.iter().filter(|d| d.score >= c.of(d.class).unwrap().score) {
                 let mine = emitted[s].iter().position(|e| e == d);
                 let outranked = emitted[..s].iter().flatten().any(|e| e.score >= d.score && clash(d, e))
                     || emitted[s]

@@ -160,8 +160,10 @@ impl ExperimentConfig {
             .iou
             .iter()
             .zip(&self.nms.score)
+            .zip(&self.data.classes)
             .enumerate()
-            .map(|(c, (&iou, &score))| ClassNms {
+            .map(|(c, ((&iou, &score), &class))| ClassNms {
+                class,
                 iou,
                 score,
                 vote_iou: self.nms.vote_iou.get(c).copied(),

@@ -39,7 +39,7 @@ pub struct TemporalReport {
 /// Runs every sequence frame by frame: frame t's first centers are seeds from frame t − 1's
 /// detections ([`temporal_seeds`]: up to K, a few per detection, best first) moved into frame t
 /// (`Pose::between` the two poses) and snapped to the nearest candidate center within the
-/// gathering radius ([`snap_seeds`]), and FPS draws the rest up to `budget.num_centers` as it
+/// gathering radius ([`crate::temporal::snap_seeds`]), and FPS draws the rest up to `budget.num_centers` as it
 /// would without seeds;
 /// the first frame of a sequence has no seeds. Frame `i`
 /// (counting through the sequences) samples from `frame_seed(seed, i)`, as

@@ -150,7 +150,7 @@ mod tests {
     fn det(x: f32, score: f32) -> Detection {
         Detection {
             b: Box3d::new(x, 1.0, -1.0, 4.0, 1.6, 1.5, 0.0),
-            class: 0,
+            class: starnet_data::kitti::ObjectClass::Car,
             score,
         }
     }

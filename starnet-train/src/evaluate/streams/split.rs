@@ -200,9 +200,9 @@ pub fn evaluate_stream(
                 .detections(*mode)
                 .iter()
                 .filter(|d| d.b.x.hypot(d.b.y) <= m.stream.eval_range)
-                .filter(|d| !camera_view || to_kitti(d, classes, &frame.calib, frame.image_size).is_some())
+                .filter(|d| !camera_view || to_kitti(d, &frame.calib, frame.image_size).is_some())
                 .map(|d| WaymoDetection {
-                    class: classes[d.class],
+                    class: d.class,
                     b: d.b,
                     score: d.score,
                 })
