@@ -1,5 +1,5 @@
-//! Every way of evaluating a model, in one place, each writing its report through
-//! [`crate::report::ReportFiles`]:
+//! Every way of evaluating a model, in one place; those that report a table write it, its JSON and
+//! its plots through [`crate::report::ReportFiles`]:
 //!
 //! | way | function | `starnet` | writes |
 //! |---|---|---|---|
@@ -8,11 +8,12 @@
 //! | every kept checkpoint of a run | [`evaluate_run`] | `eval --run` | per step as above; `run_eval.*` |
 //! | sequences with temporal seeding (table 4) | [`temporal_sweep`] | `eval --sequences` | `temporal.*` |
 //! | streamed over azimuth slices | [`evaluate_stream`] | `stream-eval` | `stream.*` |
-//! | a run's validation (either of the first and the last) | [`validate`] | `train` | `RUN/results/`, `RUN/eval.json` |
+//! | a training run's validation (the first way, or the streamed one for a streaming config) | [`validate`] | `train` | `RUN/results/`, `RUN/eval.json` |
 //! | where the centers can reach objects (figure 5) | [`run_coverage`] | `coverage` | a plot |
 //!
-//! Frame `i` of a split samples its centers from [`crate::detector::frame_seed`]`(seed, i)` in every one of them,
-//! so the same config and seed give the same figures whichever way runs them.
+//! Every way draws frame `i`'s centers from an RNG seeded by (the config's seed, `i`): frame by frame from
+//! [`crate::detector::frame_seed`] (a split, budgets, checkpoints, sequences at K = 0, validation), so those agree
+//! with each other; slice by slice from their own sub-seed (streams). The same config and seed give the same figures.
 
 mod budgets;
 mod checkpoints;
