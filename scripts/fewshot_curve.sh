@@ -33,21 +33,33 @@ has() { [[ " $kinds " == *" $1 "* ]]; }
 # A root holding every frame of ROOT and, renumbered, the first `mix * n` frames of SIM_ROOT's train split;
 # its fewshot_train_mix_N split lists the first N real training frames and those simulated ones.
 mixed_root() {
-  local n=$1 dir=$2 kind id
+  local n=$1 dir=$2 kind id real simulated
+  real=$(cd "$root" && pwd)/training
+  simulated=$(cd "$sim_root" && pwd)/training
   mkdir -p "$dir/ImageSets"
   for kind in velodyne label_2 calib; do
     mkdir -p "$dir/training/$kind"
-    for f in "$(cd "$root" && pwd)/training/$kind"/*; do ln -sf "$f" "$dir/training/$kind/"; done
+    ln -sf "$real/$kind"/* "$dir/training/$kind/"
   done
   cp "$root/ImageSets/fewshot_val.txt" "$dir/ImageSets/"
   head -n "$n" "$root/ImageSets/fewshot_train.txt" > "$dir/ImageSets/.split"
   for id in $(head -n $(( mix * n )) "$sim_root/ImageSets/train.txt"); do
     for kind in velodyne:bin label_2:txt calib:txt; do
-      ln -sf "$(cd "$sim_root" && pwd)/training/${kind%%:*}/$id.${kind##*:}" "$dir/training/${kind%%:*}/5${id:1}.${kind##*:}"
+      ln -sf "$simulated/${kind%%:*}/$id.${kind##*:}" "$dir/training/${kind%%:*}/5${id:1}.${kind##*:}"
     done
     echo "5${id:1}" >> "$dir/ImageSets/.split"
   done
   mv "$dir/ImageSets/.split" "$dir/ImageSets/fewshot_train_mix_$n.txt"
+}
+
+# Fine-tunes seed $2's starting model into run folder $1 on split $4 of root $3 for 390 steps of $5 frames an
+# epoch (the decay from halfway), unless that run already evaluated.
+finetune() {
+  local d=$1 s=$2 data=$3 split=$4 frames=$5 epochs
+  epochs=$(( (30 * 26 + frames - 1) / frames ))
+  [ -f "$d/eval.json" ] || "$bin" train --config configs/finetune-real.toml --init "$(init_of "$s")" --run "$d" \
+    --set "data.root=\"$data\"" --set "data.train_split=\"$split\"" --set "seed=$s" \
+    --set "train.epochs=$epochs" --set "train.decay_start_epoch=$(( epochs / 2 ))" > "$d.log" 2>&1
 }
 
 table() {
@@ -107,20 +119,14 @@ for n in $sizes; do
   for s in $seeds; do
     common=(--set "data.root=\"$sized\"" --set "data.train_split=\"fewshot_train_$n\"" --set "seed=$s"
             --set "train.epochs=$epochs" --set "train.decay_start_epoch=$(( epochs / 2 ))")
-    d=$out/finetune-n$n-s$s
-    has finetune && { [ -f "$d/eval.json" ] || "$bin" train --config configs/finetune-real.toml --init "$(init_of "$s")" \
-      --run "$d" "${common[@]}" > "$d.log" 2>&1; }
+    has finetune && finetune "$out/finetune-n$n-s$s" "$s" "$sized" "fewshot_train_$n" "$n"
     d=$out/scratch-n$n-s$s
     has scratch && { [ -f "$d/eval.json" ] || "$bin" train --config configs/finetune-real.toml --run "$d" "${common[@]}" \
       --set train.learning_rate=0.002 > "$d.log" 2>&1; }
     if has mixed; then
       mixed=$out/root-mix-n$n
       [ -f "$mixed/ImageSets/fewshot_train_mix_$n.txt" ] || mixed_root "$n" "$mixed"
-      mixed_epochs=$(( (30 * 26 + n * (mix + 1) - 1) / (n * (mix + 1)) ))
-      d=$out/mixed-n$n-s$s
-      [ -f "$d/eval.json" ] || "$bin" train --config configs/finetune-real.toml --init "$(init_of "$s")" --run "$d" \
-        --set "data.root=\"$mixed\"" --set "data.train_split=\"fewshot_train_mix_$n\"" --set "seed=$s" \
-        --set "train.epochs=$mixed_epochs" --set "train.decay_start_epoch=$(( mixed_epochs / 2 ))" > "$d.log" 2>&1
+      finetune "$out/mixed-n$n-s$s" "$s" "$mixed" "fewshot_train_mix_$n" $(( n * (mix + 1) ))
     fi
   done
 done
