@@ -1,9 +1,10 @@
 //! Augmenting a frame: the settings, what was drawn, and the order the transforms run in; ring dropout.
 
 use super::{
-    gtdb::GTDB_CAPTURE_MARGIN, gtdb::GtDatabase, paste::DbPasteConfig, paste::paste_from_database,
-    reflectance::ReflectanceAugment, reflectance::ReflectanceDraw, reflectance::augment_reflectance, transforms::Scene,
-    transforms::flip_y, transforms::rotate_boxes, transforms::rotate_z, transforms::scale, transforms::shift_z,
+    box_scaling::BoxScale, box_scaling::scale_boxes, gtdb::GTDB_CAPTURE_MARGIN, gtdb::GtDatabase, paste::DbPasteConfig,
+    paste::paste_from_database, reflectance::ReflectanceAugment, reflectance::ReflectanceDraw,
+    reflectance::augment_reflectance, transforms::Scene, transforms::flip_y, transforms::rotate_boxes,
+    transforms::rotate_z, transforms::scale, transforms::shift_z,
 };
 use crate::Point;
 use crate::settings::{Checked, InvalidSetting, non_negative, ordered_range, positive, within};
@@ -22,6 +23,21 @@ pub struct UniformStep {
     pub max: f32,
 }
 
+/// A per-object stretch whose factor along each box axis is drawn from that axis's range
+/// `U(min, max)` (a range of one value draws nothing).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScalingStep {
+    /// Whether the step runs.
+    pub enabled: bool,
+    /// Along the heading, `[min, max]`.
+    pub length: [f32; 2],
+    /// Across the heading.
+    pub width: [f32; 2],
+    /// Up, from the box's bottom.
+    pub height: [f32; 2],
+}
+
 /// Augmentation settings; the defaults are the authors' KITTI car settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -37,6 +53,10 @@ pub struct AugmentConfig {
     pub object_margin: f32,
     /// Per-box rotation about the box centre, radians (π/20).
     pub box_rotation: UniformStep,
+    /// Per-object scaling ([`BoxScale`], ST3D's random object scaling; not in the paper, off):
+    /// each box's length, width and height stretched by its own factor from that axis's range,
+    /// its points with it, after the per-box rotation.
+    pub box_scaling: ScalingStep,
     /// Whether to mirror y, and with which probability (0.5).
     pub flip_y: bool,
     /// Probability of the flip.
@@ -67,6 +87,12 @@ impl Default for AugmentConfig {
             box_rotation: UniformStep {
                 enabled: true,
                 max: PI / 20.0,
+            },
+            box_scaling: ScalingStep {
+                enabled: false,
+                length: [0.9, 1.1],
+                width: [0.9, 1.1],
+                height: [0.9, 1.1],
             },
             flip_y: true,
             flip_probability: 0.5,
@@ -101,6 +127,10 @@ impl AugmentConfig {
             )
         })?;
         non_negative("box_rotation.max", self.box_rotation.max as f64)?;
+        for (key, range) in self.box_scaling.ranges() {
+            positive(key, range[0] as f64)?;
+            ordered_range(key, range)?;
+        }
         within("flip_probability", self.flip_probability as f64, 0.0, 1.0)?;
         non_negative("global_rotation.max", self.global_rotation.max as f64)?;
         let [lo, hi] = self.scaling_range;
@@ -123,6 +153,12 @@ impl AugmentConfig {
                 enabled: false,
                 max: 0.0,
             },
+            box_scaling: ScalingStep {
+                enabled: false,
+                length: [1.0, 1.0],
+                width: [1.0, 1.0],
+                height: [1.0, 1.0],
+            },
             flip_y: false,
             global_rotation: UniformStep {
                 enabled: false,
@@ -136,6 +172,30 @@ impl AugmentConfig {
     }
 }
 
+impl ScalingStep {
+    /// One box's factors, length, width, then height (the identity when the step is off).
+    pub fn draw(&self, rng: &mut impl Rng) -> BoxScale {
+        if !self.enabled {
+            return BoxScale::IDENTITY;
+        }
+        let mut factor = |[lo, hi]: [f32; 2]| if lo < hi { rng.random_range(lo..=hi) } else { lo };
+        BoxScale {
+            length: factor(self.length),
+            width: factor(self.width),
+            height: factor(self.height),
+        }
+    }
+
+    /// Each axis's range with its key (relative to the augmentation table).
+    fn ranges(&self) -> [(&'static str, [f32; 2]); 3] {
+        [
+            ("box_scaling.length", self.length),
+            ("box_scaling.width", self.width),
+            ("box_scaling.height", self.height),
+        ]
+    }
+}
+
 /// What one call of [`augment`] drew (identity values for disabled steps).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AugmentDraw {
@@ -143,6 +203,8 @@ pub struct AugmentDraw {
     pub pasted: Vec<usize>,
     /// Per-box rotations, after pasting (one per box).
     pub box_rotations: Vec<f32>,
+    /// Per-box stretches, after the rotations (one per box).
+    pub box_scales: Vec<BoxScale>,
     /// Whether y was mirrored.
     pub flipped: bool,
     /// Global rotation.
@@ -194,6 +256,8 @@ pub fn augment(scene: &mut Scene, cfg: &AugmentConfig, db: Option<&GtDatabase>, 
         .map(|_| uniform(&cfg.box_rotation, rng))
         .collect();
     rotate_boxes(scene, &box_rotations, cfg.object_margin);
+    let box_scales: Vec<BoxScale> = (0..scene.boxes.len()).map(|_| cfg.box_scaling.draw(rng)).collect();
+    scale_boxes(scene, &box_scales, cfg.object_margin);
     let flipped = cfg.flip_y && rng.random::<f32>() < cfg.flip_probability;
     if flipped {
         flip_y(scene);
@@ -220,6 +284,7 @@ pub fn augment(scene: &mut Scene, cfg: &AugmentConfig, db: Option<&GtDatabase>, 
     AugmentDraw {
         pasted,
         box_rotations,
+        box_scales,
         flipped,
         rotation,
         scale: s,
@@ -270,7 +335,7 @@ pub fn ring_dropout(points: &[Point], width: f32, rng: &mut impl Rng) -> (Vec<Po
 mod tests {
     use super::*;
     use crate::Box3d;
-    use crate::augment::rotate_box;
+    use crate::augment::{rotate_box, scale_box};
     use crate::kitti::ObjectClass;
     use rand::SeedableRng;
 
@@ -294,7 +359,13 @@ mod tests {
 
     #[test]
     fn draws_stay_in_their_ranges_and_replay() {
-        let cfg = AugmentConfig::default();
+        let cfg = AugmentConfig {
+            box_scaling: ScalingStep {
+                enabled: true,
+                ..AugmentConfig::default().box_scaling
+            },
+            ..AugmentConfig::default()
+        };
         let mut flips = 0;
         for seed in 0..200 {
             let mut s = Scene {
@@ -308,6 +379,8 @@ mod tests {
                     && (0.95..=1.05).contains(&d.scale)
                     && d.box_rotations[0].abs() <= PI / 20.0
             );
+            let f = d.box_scales[0];
+            assert!([f.length, f.width, f.height].iter().all(|x| (0.9..=1.1).contains(x)));
             flips += d.flipped as usize;
             // Replaying the draw with the pure transforms gives the same scene.
             let mut r = Scene {
@@ -316,6 +389,7 @@ mod tests {
                 classes: vec![ObjectClass::Car],
             };
             rotate_box(&mut r, 0, d.box_rotations[0], cfg.object_margin);
+            scale_box(&mut r, 0, d.box_scales[0], cfg.object_margin);
             if d.flipped {
                 flip_y(&mut r);
             }

@@ -75,29 +75,47 @@ pub fn rotate_box(scene: &mut Scene, i: usize, angle: f32, margin: f32) {
 }
 
 /// [`rotate_box`] for every box `i` by `angles[i]` in order (0 leaves it alone), with the same
-/// result, looking at each box's neighbourhood only: the points are put in a grid once, and a
-/// point is inside box `i` now either near where it was put in the grid or because an earlier
-/// box moved it, so those are looked at too.
+/// result, looking at each box's neighbourhood only (the points are put in a grid once).
 pub fn rotate_boxes(scene: &mut Scene, angles: &[f32], margin: f32) {
+    let turned: Vec<(usize, f32)> = angles.iter().copied().enumerate().filter(|(_, a)| *a != 0.0).collect();
+    let boxes = scene.boxes.clone();
+    move_box_points(scene, turned.iter().map(|(i, _)| *i), margin, |k, p| {
+        let (b, angle) = (boxes[turned[k].0], turned[k].1);
+        let (x, y) = rot(p[0] - b.x, p[1] - b.y, angle);
+        (p[0], p[1]) = (x + b.x, y + b.y);
+    });
+    for (i, angle) in turned {
+        scene.boxes[i].heading = wrap_angle(boxes[i].heading + angle);
+    }
+}
+
+/// Moves the points inside each of `boxes` (indices, in order) grown by `margin` with
+/// `move_point(k, point)`, `k` the box's position in `boxes`, as if each box took its points from
+/// the whole cloud in turn, but looking at each box's neighbourhood only: the points are put in a
+/// grid once, and a point is inside a box now either near where it was put in the grid or because
+/// an earlier box moved it, so those are looked at too. The boxes themselves are left as they
+/// were (the caller updates them).
+pub(crate) fn move_box_points(
+    scene: &mut Scene,
+    boxes: impl Iterator<Item = usize>,
+    margin: f32,
+    mut move_point: impl FnMut(usize, &mut Point),
+) {
     let grid = near_grid(&scene.points);
     let mut moved: Vec<u32> = Vec::new();
     let mut near = Vec::new();
-    for (i, &angle) in angles.iter().enumerate().filter(|(_, a)| **a != 0.0) {
-        let b = scene.boxes[i];
-        let grown = b.grown(margin);
+    for (k, i) in boxes.enumerate() {
+        let grown = scene.boxes[i].grown(margin);
         let holds = grown.point_test();
         points_near(&grid, &grown, &mut near);
         near.extend_from_slice(&moved);
         near.sort_unstable();
         near.dedup();
-        near.retain(|&k| holds(&scene.points[k as usize]));
-        for &k in &near {
-            let p = &mut scene.points[k as usize];
-            let (x, y) = rot(p[0] - b.x, p[1] - b.y, angle);
-            (p[0], p[1]) = (x + b.x, y + b.y);
+        near.retain(|&n| holds(&scene.points[n as usize]));
+        for &n in &near {
+            move_point(k, &mut scene.points[n as usize]);
         }
         moved.extend_from_slice(&near);
-        scene.boxes[i].heading = wrap_angle(b.heading + angle);
     }
 }
 

@@ -244,6 +244,8 @@ fn every_range_rule_rejects_a_bad_value_naming_its_key() {
         ("augment.global_rotation.max=-1.0", "augment.global_rotation.max"),
         ("augment.scaling_range=[1.05, 0.95]", "augment.scaling_range"),
         ("augment.scaling_range=[0.0, 1.0]", "augment.scaling_range"),
+        ("augment.box_scaling.height=[1.1, 0.9]", "augment.box_scaling.height"),
+        ("augment.box_scaling.width=[0.0, 1.0]", "augment.box_scaling.width"),
         ("augment.z_shift_sigma=-1.0", "augment.z_shift_sigma"),
         ("augment.ring_dropout_width=-0.1", "augment.ring_dropout_width"),
         ("model.d_fc0=0", "model.d_fc0"),

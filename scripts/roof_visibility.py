@@ -1,0 +1,74 @@
+#!/usr/bin/env python3
+"""How much of a labelled car's height the LiDAR shows: per labelled Car (occlusion <= 1, at least 10
+returns inside its box grown by 0.1 m), how far below the label's top the highest return inside it
+lies, by distance, for one or more KITTI-layout roots (the simulator's and real scans side by side).
+
+A network reads a car's height from its highest returns; where the roof shows less in one set than
+in another, the same network predicts shorter boxes there. Usage (numpy):
+
+  scripts/roof_visibility.py ../shared/kitti-real-dev data/sim --split val --frames 300
+"""
+import argparse
+import os
+
+import numpy as np
+
+BANDS = [(0, 20), (20, 40), (40, 80)]
+
+
+def calibration(path):
+    """R0_rect and Tr_velo_to_cam of a KITTI calib file."""
+    rows = {}
+    for line in open(path):
+        if ":" in line:
+            key, values = line.split(":", 1)
+            rows[key] = np.array([float(v) for v in values.split()])
+    return rows["R0_rect"].reshape(3, 3), rows["Tr_velo_to_cam"].reshape(3, 4)
+
+
+def frame_gaps(root, frame):
+    """(distance, gap below the label's top, label height) for each visible labelled car of one frame."""
+    points = np.fromfile(f"{root}/training/velodyne/{frame}.bin", dtype=np.float32).reshape(-1, 4)[:, :3]
+    r0, tr = calibration(f"{root}/training/calib/{frame}.txt")
+    cam = (r0 @ (tr[:, :3] @ points.T + tr[:, 3:4])).T  # rectified camera frame: x right, y down, z forward
+    out = []
+    for line in open(f"{root}/training/label_2/{frame}.txt"):
+        v = line.split()
+        if v[0] != "Car" or int(float(v[2])) > 1:
+            continue
+        h, w, length, x, y, z, ry = map(float, v[8:15])
+        c, s = np.cos(ry), np.sin(ry)
+        dx, dz = cam[:, 0] - x, cam[:, 2] - z
+        along, across = c * dx - s * dz, s * dx + c * dz
+        inside = (np.abs(along) <= length / 2 + 0.1) & (np.abs(across) <= w / 2 + 0.1)
+        inside &= (cam[:, 1] <= y) & (cam[:, 1] >= y - h - 0.1)
+        if inside.sum() >= 10:
+            out.append((np.hypot(x, z), cam[inside, 1].min() - (y - h), h))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("roots", nargs="+", help="KITTI-layout roots")
+    ap.add_argument("--split", default="val", help="ImageSets split (all labelled frames if the file is absent)")
+    ap.add_argument("--frames", type=int, default=0, help="at most this many frames of each root (0: all)")
+    args = ap.parse_args()
+    print("| root | distance | cars | gap below the top: p25 / median / p75 (m) | label height, mean (m) |")
+    print("|---|---|---|---|---|")
+    for root in args.roots:
+        split = f"{root}/ImageSets/{args.split}.txt"
+        if os.path.exists(split):
+            frames = [line.strip() for line in open(split) if line.strip()]
+        else:
+            frames = sorted(f[:-4] for f in os.listdir(f"{root}/training/label_2"))
+        frames = frames[: args.frames] if args.frames else frames
+        rows = np.array([row for frame in frames for row in frame_gaps(root, frame)]).reshape(-1, 3)
+        for lo, hi in BANDS:
+            band = rows[(rows[:, 0] >= lo) & (rows[:, 0] < hi)]
+            if len(band):
+                p25, p50, p75 = np.percentile(band[:, 1], [25, 50, 75])
+                print(f"| {root} | {lo}-{hi} m | {len(band)} | {p25:.2f} / {p50:.2f} / {p75:.2f} | {band[:, 2].mean():.2f} |")
+
+
+if __name__ == "__main__":
+    main()
