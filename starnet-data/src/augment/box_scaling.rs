@@ -77,7 +77,8 @@ pub fn scaled_point(b: &Box3d, s: BoxScale, p: &Point) -> Point {
 }
 
 /// Stretches box `i` and the points inside it grown by `margin` ([`Box3d::grown`]) by `s`.
-/// Inverse: `scale_box(i, s.inverse(), margin)` (the same points are inside the stretched box).
+/// Inverse: `scale_box(i, s.inverse(), margin)`: the same points are inside the stretched box, as
+/// long as a growing box took in no point that lay beyond it (a neighbour's).
 pub fn scale_box(scene: &mut Scene, i: usize, s: BoxScale, margin: f32) {
     let b = scene.boxes[i];
     for k in b.grown(margin).points_inside(&scene.points) {
