@@ -10,40 +10,34 @@ in another, the same network predicts shorter boxes there. Usage (numpy):
 """
 import argparse
 import os
+import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from box_errors import read_objects  # noqa: E402
+from onnx_detect import read_calib  # noqa: E402
+
 BANDS = [(0, 20), (20, 40), (40, 80)]
-
-
-def calibration(path):
-    """R0_rect and Tr_velo_to_cam of a KITTI calib file."""
-    rows = {}
-    for line in open(path):
-        if ":" in line:
-            key, values = line.split(":", 1)
-            rows[key] = np.array([float(v) for v in values.split()])
-    return rows["R0_rect"].reshape(3, 3), rows["Tr_velo_to_cam"].reshape(3, 4)
 
 
 def frame_gaps(root, frame):
     """(distance, gap below the label's top, label height) for each visible labelled car of one frame."""
     points = np.fromfile(f"{root}/training/velodyne/{frame}.bin", dtype=np.float32).reshape(-1, 4)[:, :3]
-    r0, tr = calibration(f"{root}/training/calib/{frame}.txt")
-    cam = (r0 @ (tr[:, :3] @ points.T + tr[:, 3:4])).T  # rectified camera frame: x right, y down, z forward
+    _, velo_to_rect = read_calib(f"{root}/training/calib/{frame}.txt")
+    cam = points @ velo_to_rect[:3, :3].T + velo_to_rect[:3, 3]  # rectified camera frame: x right, y down, z forward
     out = []
-    for line in open(f"{root}/training/label_2/{frame}.txt"):
-        v = line.split()
-        if v[0] != "Car" or int(float(v[2])) > 1:
+    for car in read_objects(f"{root}/training/label_2/{frame}.txt"):
+        if car["cls"] != "Car" or car["occ"] > 1:
             continue
-        h, w, length, x, y, z, ry = map(float, v[8:15])
-        c, s = np.cos(ry), np.sin(ry)
-        dx, dz = cam[:, 0] - x, cam[:, 2] - z
+        c, s = np.cos(car["ry"]), np.sin(car["ry"])
+        dx, dz = cam[:, 0] - car["x"], cam[:, 2] - car["z"]
         along, across = c * dx - s * dz, s * dx + c * dz
-        inside = (np.abs(along) <= length / 2 + 0.1) & (np.abs(across) <= w / 2 + 0.1)
-        inside &= (cam[:, 1] <= y) & (cam[:, 1] >= y - h - 0.1)
+        top = car["y"] - car["h"]
+        inside = (np.abs(along) <= car["l"] / 2 + 0.1) & (np.abs(across) <= car["w"] / 2 + 0.1)
+        inside &= (cam[:, 1] <= car["y"]) & (cam[:, 1] >= top - 0.1)
         if inside.sum() >= 10:
-            out.append((np.hypot(x, z), cam[inside, 1].min() - (y - h), h))
+            out.append((np.hypot(car["x"], car["z"]), cam[inside, 1].min() - top, car["h"]))
     return out
 
 

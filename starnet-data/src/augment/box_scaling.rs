@@ -63,14 +63,18 @@ fn stretch(q: f32, half: f32, s: f32) -> f32 {
 
 /// Where point `p` inside `b` grown by a margin goes when `b` becomes [`scaled_box`]`(b, s)`.
 pub fn scaled_point(b: &Box3d, s: BoxScale, p: &Point) -> Point {
-    let q = b.to_local([p[0], p[1], p[2]]);
+    stretched_point(b, &scaled_box(b, s), s, p)
+}
+
+/// [`scaled_point`] with the stretched box `after` computed once per box, not per point.
+fn stretched_point(before: &Box3d, after: &Box3d, s: BoxScale, p: &Point) -> Point {
+    let q = before.to_local([p[0], p[1], p[2]]);
     // Heights are measured from the bottom, which stays (the grown box has no margin below it):
     // the box spans [0, dz] there.
-    let up = stretch(q[2] + 0.5 * b.dz, b.dz, s.height);
-    let after = scaled_box(b, s);
+    let up = stretch(q[2] + 0.5 * before.dz, before.dz, s.height);
     let moved = after.from_local([
-        stretch(q[0], 0.5 * b.dx, s.length),
-        stretch(q[1], 0.5 * b.dy, s.width),
+        stretch(q[0], 0.5 * before.dx, s.length),
+        stretch(q[1], 0.5 * before.dy, s.width),
         up - 0.5 * after.dz,
     ]);
     [moved[0], moved[1], moved[2], p[3]]
@@ -80,11 +84,11 @@ pub fn scaled_point(b: &Box3d, s: BoxScale, p: &Point) -> Point {
 /// Inverse: `scale_box(i, s.inverse(), margin)`: the same points are inside the stretched box, as
 /// long as a growing box took in no point that lay beyond it (a neighbour's).
 pub fn scale_box(scene: &mut Scene, i: usize, s: BoxScale, margin: f32) {
-    let b = scene.boxes[i];
+    let (b, after) = (scene.boxes[i], scaled_box(&scene.boxes[i], s));
     for k in b.grown(margin).points_inside(&scene.points) {
-        scene.points[k] = scaled_point(&b, s, &scene.points[k]);
+        scene.points[k] = stretched_point(&b, &after, s, &scene.points[k]);
     }
-    scene.boxes[i] = scaled_box(&b, s);
+    scene.boxes[i] = after;
 }
 
 /// [`scale_box`] for every box `i` by `scales[i]` in order (the identity leaves it alone), with the
@@ -92,12 +96,13 @@ pub fn scale_box(scene: &mut Scene, i: usize, s: BoxScale, margin: f32) {
 pub fn scale_boxes(scene: &mut Scene, scales: &[BoxScale], margin: f32) {
     let stretched: Vec<usize> = (0..scales.len()).filter(|&i| scales[i] != BoxScale::IDENTITY).collect();
     let before = scene.boxes.clone();
+    let after: Vec<Box3d> = stretched.iter().map(|&i| scaled_box(&before[i], scales[i])).collect();
     move_box_points(scene, stretched.iter().copied(), margin, |k, p| {
         let i = stretched[k];
-        *p = scaled_point(&before[i], scales[i], p);
+        *p = stretched_point(&before[i], &after[k], scales[i], p);
     });
-    for i in stretched {
-        scene.boxes[i] = scaled_box(&before[i], scales[i]);
+    for (k, i) in stretched.into_iter().enumerate() {
+        scene.boxes[i] = after[k];
     }
 }
 
