@@ -1,7 +1,8 @@
 //! The embedded default dataset: a deterministic LiDAR simulator that writes the KITTI layout.
 //!
 //! A ray-cast 64-beam spinning LiDAR (the HDL-64E as KITTI mounts it), tilted on its car,
-//! scans procedurally built streets: ground with camber, vertical curves, embankments and
+//! scans procedurally built streets of four kinds (residential, arterial, urban canyon, open
+//! road; [`StreetKind`]): ground with camber, vertical curves, embankments and
 //! undulation, kerbs and sidewalks, building façades, poles, signs, trees and
 //! bushes, and labelled objects (Car, Pedestrian, Cyclist, and the
 //! distractors Van, Truck, Person_sitting, Misc) whose sizes, counts, distances and headings
@@ -34,6 +35,7 @@ mod shapes;
 mod solids;
 mod stats;
 mod street;
+mod street_kind;
 mod synth;
 mod tilt;
 mod world;
@@ -50,7 +52,8 @@ pub use sensor::{LidarConfig, hdl64_elevations};
 pub use shapes::{Ray, Shape};
 pub use solids::Scenery;
 pub use stats::{DatasetStats, StatRow, dataset_stats};
-pub use street::{Ground, GroundView, Street};
+pub use street::{Ground, GroundView, Parking, Street};
+pub use street_kind::{Layout, StreetKind};
 pub use synth::{
     SIMULATOR_VERSION, SynthConfig, SynthFrame, generated_version, pose_line, sensor_pose, simulate_frame,
     simulate_scene_frame, synth_frames, synth_sequences, write_frame,

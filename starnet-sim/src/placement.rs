@@ -8,7 +8,7 @@
 use super::AnnotationMargin;
 use super::actor::Actor;
 use super::actors::{build_parts, sample_size, tight_box};
-use super::street::Street;
+use super::street::{Parking, Street};
 use rand::Rng;
 use rand_distr::{Distribution, LogNormal, Poisson};
 use starnet_data::geometry::iou_bev;
@@ -84,6 +84,19 @@ fn poisson(mean: f64, rng: &mut impl Rng) -> usize {
     }
 }
 
+/// A parked car's heading on the `side` of the street (+1 left, −1 right): with the traffic of
+/// its side, one in seven the other way round; in angled bays turned from the kerb's line by the
+/// bays' angle, towards the street (backed in; nose in when turned round).
+fn parked_heading(parking: Parking, side: f32, rng: &mut impl Rng) -> f32 {
+    let along = if side < 0.0 { 0.0 } else { PI };
+    let turned = if rng.random::<f32>() < 0.15 { PI } else { 0.0 };
+    let bay = match parking {
+        Parking::Angled { angle, .. } => angle,
+        Parking::None | Parking::Row { .. } => 0.0,
+    };
+    along + bay + turned
+}
+
 /// Which road a candidate pose's position is measured along.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Road {
@@ -107,17 +120,15 @@ pub struct Placer<'a> {
     street: &'a Street,
     obstacles: &'a [Box3d],
     actors: Vec<Actor>,
-    /// Speed per travel lane, so cars sharing a lane keep their distance over a sequence.
-    lane_speed: [[f32; 2]; 2],
+    /// Speed per travel lane (up to three a side), so cars sharing a lane keep their distance
+    /// over a sequence.
+    lane_speed: [[f32; 3]; 2],
 }
 
 impl<'a> Placer<'a> {
     /// A placer for `street` that avoids `obstacles`.
     pub fn new(street: &'a Street, obstacles: &'a [Box3d], rng: &mut impl Rng) -> Self {
-        let lane_speed = [
-            [rng.random_range(5.0..14.0), rng.random_range(5.0..14.0)],
-            [rng.random_range(5.0..14.0), rng.random_range(5.0..14.0)],
-        ];
+        let lane_speed = std::array::from_fn(|_| std::array::from_fn(|_| rng.random_range(5.0..14.0)));
         Self {
             street,
             obstacles,
@@ -292,16 +303,15 @@ impl<'a> Placer<'a> {
                 speed: 0.0,
             };
         }
-        let parked = s.parking > 0.0 && (u < 0.55 || matches!(class, ObjectClass::Misc));
+        let parked = s.parking != Parking::None && (u < 0.55 || matches!(class, ObjectClass::Misc));
         let side = if rng.random::<bool>() { 1.0 } else { -1.0 };
         if parked {
-            let y = s.centre_y + side * (s.half_width() - 0.5 * s.parking);
-            let heading = if side < 0.0 { 0.0 } else { PI } + if rng.random::<f32>() < 0.15 { PI } else { 0.0 };
+            let y = s.centre_y + side * (s.half_width() - 0.5 * s.parking.width());
             return Pose {
                 on: Road::Street,
                 x: 0.0,
                 y,
-                heading: wrap_angle(heading + jitter(rng, 4.0)),
+                heading: wrap_angle(parked_heading(s.parking, side, rng) + jitter(rng, 4.0)),
                 speed: 0.0,
             };
         }
@@ -382,6 +392,36 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
         let m = (0..20000).map(|_| sample_car_count(&mut rng)).sum::<usize>() as f64 / 20000.0;
         assert!((m - mean).abs() < 0.1, "{m}");
+    }
+
+    #[test]
+    fn cars_in_angled_bays_stand_at_the_bays_angle_inside_their_strip() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let angle = 60f32.to_radians();
+        let mut street = Street::sample(&mut rng);
+        (street.lanes_per_side, street.lane_width, street.centre_y) = (1, 3.5, 1.75);
+        street.parking = Parking::Angled { width: 5.4, angle };
+        let mut parked = 0;
+        for _ in 0..20 {
+            let actors = Placer::new(&street, &[], &mut rng).place_all(&mut rng);
+            for a in actors.iter().filter(|a| a.class == ObjectClass::Car && a.speed == 0.0) {
+                let lateral = street.lateral(a.start[1]).abs();
+                if (lateral - (street.half_width() - 2.7)).abs() > 0.01 {
+                    continue; // standing on the carriageway, not in a bay
+                }
+                parked += 1;
+                // Off the street's axis by the bays' angle (within the 4° jitter), either way round.
+                let off = wrap_angle(a.heading).abs();
+                let off = off.min(PI - off);
+                assert!((off - angle).abs() < 4.5f32.to_radians(), "{}°", off.to_degrees());
+                // Its footprint (0.4 m larger than the car) stays between the travel lane and the kerb.
+                for c in a.footprint.corners_bev() {
+                    let l = street.lateral(c[1]).abs();
+                    assert!(l > 3.5 - 0.5 && l < street.half_width() + 0.5, "{l}");
+                }
+            }
+        }
+        assert!(parked > 20, "{parked}");
     }
 
     #[test]

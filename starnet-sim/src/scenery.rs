@@ -10,6 +10,7 @@
 use super::negatives::hard_negatives;
 use super::solids::{Scenery, cuboid_at, turned_cuboid_at};
 use super::street::Ground;
+use super::street_kind::draw;
 use super::{Part, Shape, Surface};
 use rand::Rng;
 use starnet_data::Box3d;
@@ -17,17 +18,18 @@ use starnet_data::Box3d;
 /// Builds the scenery of a street over world x ∈ `[x0, x1]`.
 pub fn build_scenery(ground: &Ground, x0: f32, x1: f32, rng: &mut impl Rng) -> Scenery {
     let mut out = Scenery::default();
+    let layout = ground.street.kind.layout();
     for side in [-1.0f32, 1.0] {
         sidewalks(&mut out, ground, side, x0, x1);
         let edge = ground.street.half_width() + ground.street.sidewalk;
-        if rng.random::<f32>() < 0.8 {
+        if rng.random::<f32>() < layout.building_share {
             buildings(&mut out, ground, side, edge, x0, x1, rng);
         } else {
             bushes(&mut out, ground, side, edge + 1.0, (x0, x1), 0.3, rng);
         }
         poles(&mut out, ground, side, x0, x1, rng);
         hard_negatives(&mut out, ground, side, (x0, x1), rng);
-        if rng.random::<f32>() < 0.6 {
+        if rng.random::<f32>() < layout.tree_share {
             trees(&mut out, ground, side, x0, x1, rng);
         }
         boundaries(&mut out, ground, side, edge, (x0, x1), rng);
@@ -59,16 +61,18 @@ fn sidewalks(out: &mut Scenery, ground: &Ground, side: f32, x0: f32, x1: f32) {
     }
 }
 
+/// Building blocks along one side, set back and as tall as the street's kind draws them.
 fn buildings(out: &mut Scenery, ground: &Ground, side: f32, edge: f32, x0: f32, x1: f32, rng: &mut impl Rng) {
     let s = &ground.street;
+    let layout = s.kind.layout();
     let mut x = x0;
     while x < x1 {
         let len = rng.random_range(8.0..35.0);
-        let (mid, setback) = (x + 0.5 * len, rng.random_range(0.0..5.0));
+        let (mid, setback) = (x + 0.5 * len, draw(rng, layout.setback));
         let depth = rng.random_range(8.0..20.0);
         let y = s.centre_y + side * (edge + setback + 0.5 * depth);
         if !s.in_crossing(x) && !s.in_crossing(x + len) {
-            let h = rng.random_range(4.0..22.0);
+            let h = draw(rng, layout.height);
             // Based below the lowest ground under its front and back, so no gap opens under
             // it on a grade or an embankment.
             let (front, back) = (y - side * 0.5 * depth, y + side * 0.5 * depth);

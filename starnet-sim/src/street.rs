@@ -3,20 +3,23 @@
 //! World frame: the LiDAR frame of the scene's first frame (x along the street, the ego in a
 //! right-hand travel lane at y = 0, ground 1.73 m below the sensor at the origin).
 
+use super::street_kind::{Layout, StreetKind, draw};
 use super::{Surface, Terrain};
 use rand::Rng;
 
 /// Cross-section of the street; the road runs along world x.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Street {
+    /// The kind of street, whose [`Layout`] the rest was drawn from.
+    pub kind: StreetKind,
     /// y of the centre line.
     pub centre_y: f32,
     /// Travel lanes per direction.
     pub lanes_per_side: usize,
     /// Lane width (m).
     pub lane_width: f32,
-    /// Width of the parking strip along each kerb (0 if none).
-    pub parking: f32,
+    /// The parking along each kerb.
+    pub parking: Parking,
     /// Sidewalk width (m).
     pub sidewalk: f32,
     /// Kerb height (m).
@@ -25,26 +28,76 @@ pub struct Street {
     pub crossing: Option<(f32, f32)>,
 }
 
+/// How cars park along a street's kerbs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Parking {
+    /// No parking: the travel lanes reach the kerb.
+    None,
+    /// A row along the kerb, in a strip `width` metres wide.
+    Row {
+        /// Strip width (m).
+        width: f32,
+    },
+    /// Angled bays, `angle` radians from the kerb's line (π/2: perpendicular), in a strip
+    /// `width` metres deep: parked cars seen three-quarter on, as real streets show them.
+    Angled {
+        /// Strip depth (m).
+        width: f32,
+        /// Angle between a parked car's axis and the kerb (radians).
+        angle: f32,
+    },
+}
+
+impl Parking {
+    /// The strip's width across the street (0 without parking).
+    pub fn width(self) -> f32 {
+        match self {
+            Parking::None => 0.0,
+            Parking::Row { width } | Parking::Angled { width, .. } => width,
+        }
+    }
+
+    fn sample(layout: &Layout, rng: &mut impl Rng) -> Self {
+        if rng.random::<f32>() >= layout.parking_share {
+            Parking::None
+        } else if rng.random::<f32>() < layout.angled_share {
+            Parking::Angled {
+                width: rng.random_range(4.9..5.6),
+                angle: rng.random_range(40.0f32..90.0).to_radians(),
+            }
+        } else {
+            Parking::Row {
+                width: rng.random_range(2.0..2.6),
+            }
+        }
+    }
+}
+
 impl Street {
-    /// Draws a street; the ego's lane (one of the right-hand lanes) is centred on y = 0.
+    /// Draws a street of a kind drawn by [`StreetKind::SHARES`]; the ego's lane (one of the
+    /// right-hand lanes) is centred on y = 0.
     pub fn sample(rng: &mut impl Rng) -> Self {
-        let lanes_per_side = if rng.random::<f32>() < 0.6 { 1 } else { 2 };
-        let lane_width = rng.random_range(3.2..3.8);
+        let kind = StreetKind::sample(rng);
+        Self::sample_of(kind, rng)
+    }
+
+    /// Draws a street of `kind`; the ego's lane (one of the right-hand lanes) is centred on y = 0.
+    pub fn sample_of(kind: StreetKind, rng: &mut impl Rng) -> Self {
+        let layout = kind.layout();
+        let lanes_per_side = rng.random_range(layout.lanes_per_side[0]..=layout.lanes_per_side[1]);
+        let lane_width = draw(rng, layout.lane_width);
         let ego_lane = rng.random_range(0..lanes_per_side);
-        let crossing = (rng.random::<f32>() < 0.35).then(|| {
+        let crossing = (rng.random::<f32>() < layout.crossing_share).then(|| {
             let x = rng.random_range(15.0..70.0) * if rng.random::<f32>() < 0.7 { 1.0 } else { -1.0 };
             (x, rng.random_range(4.0..7.0))
         });
         Self {
+            kind,
             centre_y: lane_width * (ego_lane as f32 + 0.5),
             lanes_per_side,
             lane_width,
-            parking: if rng.random::<f32>() < 0.7 {
-                rng.random_range(2.0..2.6)
-            } else {
-                0.0
-            },
-            sidewalk: rng.random_range(2.0..4.0),
+            parking: Parking::sample(&layout, rng),
+            sidewalk: draw(rng, layout.sidewalk),
             kerb: rng.random_range(0.12..0.16),
             crossing,
         }
@@ -52,7 +105,7 @@ impl Street {
 
     /// Half-width of the carriageway, kerb to kerb.
     pub fn half_width(&self) -> f32 {
-        self.lanes_per_side as f32 * self.lane_width + self.parking
+        self.lanes_per_side as f32 * self.lane_width + self.parking.width()
     }
 
     /// Signed distance across the street from the centre line (+ to the left).
@@ -102,8 +155,9 @@ struct Bank {
 }
 
 impl Bank {
-    fn sample(rng: &mut impl Rng) -> Self {
-        if rng.random::<f32>() < 0.55 {
+    /// Flat, or (with chance `share`) an embankment.
+    fn sample(share: f32, rng: &mut impl Rng) -> Self {
+        if rng.random::<f32>() >= share {
             return Self {
                 slope: 0.0,
                 height: 0.0,
@@ -144,13 +198,15 @@ impl Ground {
                 ]
             })
             .collect();
+        let share = street.kind.layout().bank_share;
+        let banks = [Bank::sample(share, rng), Bank::sample(share, rng)];
         let mut g = Self {
             street,
             waves,
             // 1/4000 m⁻¹: the grade changes by 2.5 % over 100 m; the road 40 m ahead leaves
             // the tangent at the sensor by 0.2 m.
             bend: clamped_normal(rng, 1.0 / 4000.0, 1.0 / 1000.0),
-            banks: [Bank::sample(rng), Bank::sample(rng)],
+            banks,
             offset: 0.0,
         };
         g.offset = -mount_height - g.raw(0.0, 0.0);
@@ -283,6 +339,40 @@ mod tests {
                 assert!((dz - g.grade_at(x)).abs() < 0.057, "{dz} against {}", g.grade_at(x));
             }
         }
+    }
+
+    #[test]
+    fn streets_are_drawn_from_their_kinds_layouts() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut angled = 0;
+        for _ in 0..400 {
+            let s = Street::sample(&mut rng);
+            let l = s.kind.layout();
+            assert!(
+                (l.lanes_per_side[0]..=l.lanes_per_side[1]).contains(&s.lanes_per_side),
+                "{s:?}"
+            );
+            assert!(
+                s.lane_width >= l.lane_width[0] && s.lane_width <= l.lane_width[1],
+                "{s:?}"
+            );
+            assert!(s.sidewalk >= l.sidewalk[0] && s.sidewalk <= l.sidewalk[1], "{s:?}");
+            // The ego's lane is one of the right-hand lanes, centred on y = 0.
+            assert!(
+                s.centre_y > 0.0 && s.centre_y < s.lanes_per_side as f32 * s.lane_width,
+                "{s:?}"
+            );
+            match s.parking {
+                Parking::None => {}
+                Parking::Row { width } => assert!((2.0..2.6).contains(&width)),
+                Parking::Angled { width, angle } => {
+                    angled += 1;
+                    // Deep enough for a 4.5 m car at the bays' angle.
+                    assert!(width >= 4.5 * angle.sin() + 1.8 * angle.cos() - 0.5, "{s:?}");
+                }
+            }
+        }
+        assert!(angled > 10, "{angled}");
     }
 
     #[test]

@@ -164,9 +164,9 @@ pub fn write_frame(training: &Path, id: &str, frame: &SynthFrame, calib: &Calib)
 /// other scans for the same seed (2: the intensity model, glass, foliage and clutter of issue
 /// #33; 3: vehicles labelled with KITTI's annotation margins, [`super::AnnotationMargin`], and
 /// car bodies with rounded ends; 4: roads with vertical curves, embankments, a tilted sensor,
-/// hard negatives and façade relief, issue #47; sets without the field are
-/// version 1).
-pub const SIMULATOR_VERSION: u32 = 4;
+/// hard negatives and façade relief, issue #47; 5: four kinds of street drawn per scene,
+/// [`super::StreetKind`], with angled parking bays; sets without the field are version 1).
+pub const SIMULATOR_VERSION: u32 = 5;
 
 /// What a generation writes to `synth.json`, and the job its partial folder is kept for.
 fn manifest(mut what: serde_json::Value) -> serde_json::Value {

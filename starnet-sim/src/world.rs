@@ -99,9 +99,15 @@ pub struct Moment {
 }
 
 impl World {
-    /// Draws a scene the ego drives through for `duration` seconds.
+    /// Draws a scene the ego drives through for `duration` seconds, on a street of a kind
+    /// drawn by [`super::StreetKind::SHARES`].
     pub fn generate(lidar: &LidarConfig, duration: f32, rng: &mut impl Rng) -> Self {
         let street = Street::sample(rng);
+        Self::generate_on(street, lidar, duration, rng)
+    }
+
+    /// Draws a scene along `street` (say, one of [`Street::sample_of`] a chosen kind).
+    pub fn generate_on(street: Street, lidar: &LidarConfig, duration: f32, rng: &mut impl Rng) -> Self {
         let ground = Ground::sample(street, lidar.mount_height, rng);
         let ego_speed = rng.random_range(5.0..12.0);
         let scenery = build_scenery(
