@@ -53,7 +53,7 @@ pub use shapes::{Ray, Shape};
 pub use solids::Scenery;
 pub use stats::{DatasetStats, StatRow, dataset_stats};
 pub use street::{Ground, GroundView, Parking, Street};
-pub use street_kind::{Layout, StreetKind};
+pub use street_kind::{Layout, MAX_LANES_PER_SIDE, StreetKind};
 pub use synth::{
     SIMULATOR_VERSION, SynthConfig, SynthFrame, generated_version, pose_line, sensor_pose, simulate_frame,
     simulate_scene_frame, synth_frames, synth_sequences, write_frame,

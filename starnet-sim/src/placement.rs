@@ -9,6 +9,7 @@ use super::AnnotationMargin;
 use super::actor::Actor;
 use super::actors::{build_parts, sample_size, tight_box};
 use super::street::{Parking, Street};
+use super::street_kind::MAX_LANES_PER_SIDE;
 use rand::Rng;
 use rand_distr::{Distribution, LogNormal, Poisson};
 use starnet_data::geometry::iou_bev;
@@ -86,7 +87,9 @@ fn poisson(mean: f64, rng: &mut impl Rng) -> usize {
 
 /// A parked car's heading on the `side` of the street (+1 left, −1 right): with the traffic of
 /// its side, one in seven the other way round; in angled bays turned from the kerb's line by the
-/// bays' angle, towards the street (backed in; nose in when turned round).
+/// bays' angle, nose towards the street (backed in, as back-in angle parking has it; nose in when
+/// turned round). Every vehicle class parks so, vans and trucks included, and a long one
+/// overhangs its bay: a known limit of version 5.
 fn parked_heading(parking: Parking, side: f32, rng: &mut impl Rng) -> f32 {
     let along = if side < 0.0 { 0.0 } else { PI };
     let turned = if rng.random::<f32>() < 0.15 { PI } else { 0.0 };
@@ -120,9 +123,8 @@ pub struct Placer<'a> {
     street: &'a Street,
     obstacles: &'a [Box3d],
     actors: Vec<Actor>,
-    /// Speed per travel lane (up to three a side), so cars sharing a lane keep their distance
-    /// over a sequence.
-    lane_speed: [[f32; 3]; 2],
+    /// Speed per travel lane, so cars sharing a lane keep their distance over a sequence.
+    lane_speed: [[f32; MAX_LANES_PER_SIDE]; 2],
 }
 
 impl<'a> Placer<'a> {
@@ -401,7 +403,7 @@ mod tests {
         let mut street = Street::sample(&mut rng);
         (street.lanes_per_side, street.lane_width, street.centre_y) = (1, 3.5, 1.75);
         street.parking = Parking::Angled { width: 5.4, angle };
-        let mut parked = 0;
+        let (mut parked, mut facing_street) = (0, 0);
         for _ in 0..20 {
             let actors = Placer::new(&street, &[], &mut rng).place_all(&mut rng);
             for a in actors.iter().filter(|a| a.class == ObjectClass::Car && a.speed == 0.0) {
@@ -414,6 +416,9 @@ mod tests {
                 let off = wrap_angle(a.heading).abs();
                 let off = off.min(PI - off);
                 assert!((off - angle).abs() < 4.5f32.to_radians(), "{}°", off.to_degrees());
+                // Backed in: the nose points away from the car's own kerb (towards the centre line).
+                let to_centre = -street.lateral(a.start[1]).signum();
+                facing_street += usize::from(a.heading.sin() * to_centre > 0.0);
                 // Its footprint (0.4 m larger than the car) stays between the travel lane and the kerb.
                 for c in a.footprint.corners_bev() {
                     let l = street.lateral(c[1]).abs();
@@ -422,6 +427,9 @@ mod tests {
             }
         }
         assert!(parked > 20, "{parked}");
+        // One in seven is turned round (nose in).
+        let share = facing_street as f32 / parked as f32;
+        assert!((0.7..0.97).contains(&share), "{facing_street} of {parked}");
     }
 
     #[test]

@@ -327,7 +327,10 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         for _ in 0..20 {
             let street = Street::sample(&mut rng);
-            assert!(street.lane_y(-1.0, 0).abs() < street.lane_width * 2.0);
+            // The ego's lane is one of the right-hand ones: the nearest lane right of the centre
+            // line lies at most (lanes − 1) lane widths to the ego's left.
+            let most = (street.lanes_per_side - 1) as f32 * street.lane_width;
+            assert!(street.lane_y(-1.0, 0).abs() <= most + 1e-4);
             let g = Ground::sample(street, 1.73, &mut rng);
             assert!((g.height(0.0, 0.0) + 1.73).abs() < 1e-5);
             // Along the lane, within 100 m: the vertical curve (under 1/1000 m⁻¹) and the
@@ -367,8 +370,10 @@ mod tests {
                 Parking::Row { width } => assert!((2.0..2.6).contains(&width)),
                 Parking::Angled { width, angle } => {
                     angled += 1;
-                    // Deep enough for a 4.5 m car at the bays' angle.
-                    assert!(width >= 4.5 * angle.sin() + 1.8 * angle.cos() - 0.5, "{s:?}");
+                    assert!(l.angled_share > 0.0, "{s:?}");
+                    assert!((40f32.to_radians()..=90f32.to_radians()).contains(&angle), "{s:?}");
+                    // Deep enough for a 4.5 m × 1.8 m car at the bays' angle.
+                    assert!(width >= 4.5 * angle.sin() + 1.8 * angle.cos(), "{s:?}");
                 }
             }
         }

@@ -9,6 +9,9 @@
 
 use rand::Rng;
 
+/// The most travel lanes a side any kind draws ([`Layout::lanes_per_side`]).
+pub const MAX_LANES_PER_SIDE: usize = 3;
+
 /// The kind of street a scene is built around.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StreetKind {
@@ -17,9 +20,9 @@ pub enum StreetKind {
     Residential,
     /// Two or three lanes each way, wide sidewalks, parking on some, larger buildings.
     Arterial,
-    /// An urban canyon: continuous tall façades at the back of the sidewalk, parking, few trees.
+    /// An urban canyon: tall façades at the back of the sidewalk, parking, few trees.
     Canyon,
-    /// An open road: no parking, few buildings far back, embankments and vegetation.
+    /// An open road: rarely parking, few buildings far back, embankments and vegetation.
     OpenRoad,
 }
 
@@ -35,7 +38,7 @@ pub struct Layout {
     /// Chance that a street with parking parks its cars in angled bays rather than in a row
     /// along the kerb.
     pub angled_share: f32,
-    /// Sidewalk (or verge) width (m).
+    /// Sidewalk width (m): a raised slab along each kerb.
     pub sidewalk: [f32; 2],
     /// Chance of a crossing street.
     pub crossing_share: f32,
@@ -159,6 +162,7 @@ mod tests {
         for (kind, _) in StreetKind::SHARES {
             let l = kind.layout();
             assert!(l.lanes_per_side[0] >= 1 && l.lanes_per_side[0] <= l.lanes_per_side[1]);
+            assert!(l.lanes_per_side[1] <= MAX_LANES_PER_SIDE, "{kind:?}");
             for r in [l.lane_width, l.sidewalk, l.setback, l.height] {
                 assert!(r[0] <= r[1], "{kind:?}: {r:?}");
             }
