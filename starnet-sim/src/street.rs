@@ -39,7 +39,7 @@ pub enum Parking {
         width: f32,
     },
     /// Angled bays, `angle` radians from the kerb's line (π/2: perpendicular), in a strip
-    /// `width` metres deep: parked cars seen three-quarter on, as real streets show them.
+    /// `width` metres deep, so that the sensor sees parked cars three-quarter on.
     Angled {
         /// Strip depth (m).
         width: f32,
