@@ -12,9 +12,10 @@ Pedestrian and <= 2 Cyclist per frame at score >= 0.3.
 A fixed score is also a statement about calibration: how high the model scores what it is unsure of (focal alpha
 moves it). With --reference RESULTS (one per folder, in the same order; the same model on a labelled split, as the
 simulator's val split) and --reference-labels, it also prints the score at which that model finds --keep (80 %) of
-the reference split's labelled objects of the class, and the extra boxes per frame on each folder at that score (and
-the labelled objects taken there): a figure of ranking, whatever the scale of the scores; and per score band of 0.1,
-the share of the reference's boxes that take a labelled object (a calibrated score reads as that share). Standard library only. Usage:
+the reference split's labelled objects of the class, and the extra boxes per frame on each folder at that score
+(and the labelled objects taken there): a figure of ranking, whatever the scale of the scores; and per score band
+of 0.1, the share of the reference's boxes that take a labelled object (a calibrated score reads as that share).
+Standard library only. Usage:
 
   scripts/class_boxes.py --class Pedestrian --labels ../shared/kitti-real-dev/training/label_2 \\
       --reference runs/pc/results --reference-labels data/sim/training/label_2 runs/pc/real/c512_p128
@@ -48,6 +49,11 @@ def read_folder(results, labels, cls, radius):
     frames = sorted(f[:-4] for f in os.listdir(results) if f.endswith(".txt"))
     if not frames:
         sys.exit(f"{results}: no result files (*.txt)")
+    # A wrong --labels would make every box extra: every frame must have its label file.
+    missing = [fid for fid in frames if not os.path.exists(os.path.join(labels, fid + ".txt"))]
+    if missing:
+        sys.exit(f"{labels}: no label file for {len(missing)} of the {len(frames)} frames of {results}"
+                 f" ({missing[0]}.txt, ...)")
     scored, labelled = [], 0
     for fid in frames:
         s, n = frame_boxes(read_objects(os.path.join(results, fid + ".txt")),
@@ -79,7 +85,7 @@ def reliability(scored):
 def keep_score(scored, labelled, keep):
     """The score at which `keep` of the labelled objects are taken; None if they never are."""
     took = sorted((s for frame in scored for s, t in frame if t), reverse=True)
-    need = math.ceil(keep * labelled)
+    need = max(1, math.ceil(keep * labelled - 1e-9))
     return took[need - 1] if labelled and len(took) >= need else None
 
 
@@ -90,13 +96,19 @@ def main():
     ap.add_argument("--class", dest="cls", default="Pedestrian")
     ap.add_argument("--radius", type=float, default=1.0, help="metres between a box and the object it takes")
     ap.add_argument("--thresholds", default="0.3,0.4,0.5,0.6")
-    ap.add_argument("--reference", nargs="*", default=[], help="per folder, the same model's results on a labelled split")
+    ap.add_argument("--reference", nargs="*", default=[],
+                    help="per folder, the same model's results on a labelled split")
     ap.add_argument("--reference-labels", help="label_2 folder of the reference split")
     ap.add_argument("--keep", type=float, default=0.8)
     a = ap.parse_args()
     if a.reference and (len(a.reference) != len(a.folders) or not a.reference_labels):
         sys.exit("--reference takes one folder per results folder, with --reference-labels")
-    thresholds = [float(t) for t in a.thresholds.split(",")]
+    if not 0.0 < a.keep <= 1.0:
+        sys.exit(f"--keep {a.keep}: a share in (0, 1]")
+    try:
+        thresholds = [float(t) for t in a.thresholds.split(",") if t.strip()]
+    except ValueError:
+        sys.exit(f"--thresholds {a.thresholds!r}: scores separated by commas, as 0.3,0.4")
     print(f"{a.cls}: extra boxes per frame (not taking a labelled {a.cls} within {a.radius:g} m)")
     for k, folder in enumerate(a.folders):
         scored, labelled = read_folder(folder, a.labels, a.cls, a.radius)

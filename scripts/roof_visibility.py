@@ -8,7 +8,7 @@ in another, the same network predicts shorter boxes there. A second table says h
 center gathers are on the roof: for a center at the car's middle, as high above the car's bottom as the
 sensor is above the ground (the quickstart's `center_z = "ground"`), and --points drawn uniformly from the
 --radius ball around it (the quickstart's 32 and 3 m), the expected count in the car's top 0.3 m, on the car
-and on the ground around it (a probe on the labels, not on a model's centers). Usage (numpy):
+and on the ground around it (a probe on the labels, not on a model's centers; cars to 80 m). Usage (numpy):
 
   scripts/roof_visibility.py ../shared/kitti-real-dev data/sim --split val --frames 300
 """
@@ -49,7 +49,7 @@ def frame_gaps(root, frame):
 def frame_draws(root, frame, points, radius):
     """(distance, roof, car, ground): per visible labelled car of one frame, the expected number of the
     `points` drawn from the ball around a center at its middle that lie in its top 0.3 m, inside it, and on
-    the ground outside its footprint (within 0.15 m of its bottom)."""
+    the ground outside its footprint (no higher than 0.15 m above its bottom)."""
     cloud = np.fromfile(f"{root}/training/velodyne/{frame}.bin", dtype=np.float32).reshape(-1, 4)[:, :3]
     _, velo_to_rect = read_calib(f"{root}/training/calib/{frame}.txt")
     cam = cloud @ velo_to_rect[:3, :3].T + velo_to_rect[:3, 3]
@@ -66,6 +66,8 @@ def frame_draws(root, frame, points, radius):
         if inside.sum() < 10:
             continue
         ball = dx**2 + dz**2 + (cam[:, 1] - (car["y"] - SENSOR_HEIGHT)) ** 2 <= radius**2
+        if not ball.any():
+            continue
         share = min(points, ball.sum()) / ball.sum()
         roof = ball & inside & (cam[:, 1] <= top + 0.3)
         ground = ball & ~footprint & (cam[:, 1] >= car["y"] - 0.15)
@@ -86,7 +88,8 @@ def print_draws(root, frames, points, radius):
 def read_frames(root, split, limit):
     path = f"{root}/ImageSets/{split}.txt"
     if os.path.exists(path):
-        frames = [line.strip() for line in open(path) if line.strip()]
+        with open(path) as f:
+            frames = [line.strip() for line in f if line.strip()]
     else:
         frames = sorted(f[:-4] for f in os.listdir(f"{root}/training/label_2"))
     return frames[:limit] if limit else frames
@@ -100,6 +103,8 @@ def main():
     ap.add_argument("--points", type=int, default=32, help="points a center draws (the second table)")
     ap.add_argument("--radius", type=float, default=3.0, help="the ball's radius in metres (the second table)")
     args = ap.parse_args()
+    if args.points < 1 or args.radius <= 0:
+        sys.exit("--points must be at least 1 and --radius above 0")
     print("| root | distance | cars | gap below the top: p25 / median / p75 (m) | label height, mean (m) |")
     print("|---|---|---|---|---|")
     for root in args.roots:

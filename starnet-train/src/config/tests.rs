@@ -50,6 +50,9 @@ fn shipped_configs_load() {
     assert_eq!(ped_cyc.loss.class_weights, [3.5, 3.25]);
     // Focal alpha 0.25, not lingvo's 0.9 (issue #47, BENCHMARKS.md); the 360-degree preset keeps 0.9.
     assert_eq!((ped_cyc.loss.alpha, ped.loss.alpha), (0.25, 0.9));
+    // The Pedestrian threshold set for alpha 0.25's scores; the 360-degree preset sets its own, lingvo's.
+    assert_eq!(ped_cyc.nms.score, [0.15, 0.11]);
+    assert_eq!(ped.nms.score, [0.23]);
     let car = load_config(&dir.join("kitti-car.toml"), &[]).unwrap();
     assert_eq!(car.model_config().featurizer.cell_dim(), 1440);
 }
