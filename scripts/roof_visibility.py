@@ -26,50 +26,42 @@ BANDS = [(0, 20), (20, 40), (40, 80)]
 SENSOR_HEIGHT = 1.73
 
 
-def frame_gaps(root, frame):
-    """(distance, gap below the label's top, label height) for each visible labelled car of one frame."""
+def visible_cars(root, frame):
+    """Per visible labelled car of one frame (occlusion <= 1, at least 10 returns inside its box grown by
+    0.1 m): (car, the cloud in the rectified camera frame, x and z offsets from the car's centre, the grown
+    footprint's mask, the grown box's mask)."""
     points = np.fromfile(f"{root}/training/velodyne/{frame}.bin", dtype=np.float32).reshape(-1, 4)[:, :3]
     _, velo_to_rect = read_calib(f"{root}/training/calib/{frame}.txt")
     cam = points @ velo_to_rect[:3, :3].T + velo_to_rect[:3, 3]  # rectified camera frame: x right, y down, z forward
-    out = []
     for car in read_objects(f"{root}/training/label_2/{frame}.txt"):
         if car["cls"] != "Car" or car["occ"] > 1:
             continue
         c, s = np.cos(car["ry"]), np.sin(car["ry"])
         dx, dz = cam[:, 0] - car["x"], cam[:, 2] - car["z"]
         along, across = c * dx - s * dz, s * dx + c * dz
-        top = car["y"] - car["h"]
-        inside = (np.abs(along) <= car["l"] / 2 + 0.1) & (np.abs(across) <= car["w"] / 2 + 0.1)
-        inside &= (cam[:, 1] <= car["y"]) & (cam[:, 1] >= top - 0.1)
+        footprint = (np.abs(along) <= car["l"] / 2 + 0.1) & (np.abs(across) <= car["w"] / 2 + 0.1)
+        inside = footprint & (cam[:, 1] <= car["y"]) & (cam[:, 1] >= car["y"] - car["h"] - 0.1)
         if inside.sum() >= 10:
-            out.append((np.hypot(car["x"], car["z"]), cam[inside, 1].min() - top, car["h"]))
-    return out
+            yield car, cam, dx, dz, footprint, inside
+
+
+def frame_gaps(root, frame):
+    """(distance, gap below the label's top, label height) for each visible labelled car of one frame."""
+    return [(np.hypot(car["x"], car["z"]), cam[inside, 1].min() - (car["y"] - car["h"]), car["h"])
+            for car, cam, _, _, _, inside in visible_cars(root, frame)]
 
 
 def frame_draws(root, frame, points, radius):
     """(distance, roof, car, ground): per visible labelled car of one frame, the expected number of the
     `points` drawn from the ball around a center at its middle that lie in its top 0.3 m, inside it, and on
     the ground outside its footprint (no higher than 0.15 m above its bottom)."""
-    cloud = np.fromfile(f"{root}/training/velodyne/{frame}.bin", dtype=np.float32).reshape(-1, 4)[:, :3]
-    _, velo_to_rect = read_calib(f"{root}/training/calib/{frame}.txt")
-    cam = cloud @ velo_to_rect[:3, :3].T + velo_to_rect[:3, 3]
     out = []
-    for car in read_objects(f"{root}/training/label_2/{frame}.txt"):
-        if car["cls"] != "Car" or car["occ"] > 1:
-            continue
-        c, s = np.cos(car["ry"]), np.sin(car["ry"])
-        dx, dz = cam[:, 0] - car["x"], cam[:, 2] - car["z"]
-        along, across = c * dx - s * dz, s * dx + c * dz
-        top = car["y"] - car["h"]
-        footprint = (np.abs(along) <= car["l"] / 2 + 0.1) & (np.abs(across) <= car["w"] / 2 + 0.1)
-        inside = footprint & (cam[:, 1] <= car["y"]) & (cam[:, 1] >= top - 0.1)
-        if inside.sum() < 10:
-            continue
+    for car, cam, dx, dz, footprint, inside in visible_cars(root, frame):
         ball = dx**2 + dz**2 + (cam[:, 1] - (car["y"] - SENSOR_HEIGHT)) ** 2 <= radius**2
         if not ball.any():
             continue
         share = min(points, ball.sum()) / ball.sum()
-        roof = ball & inside & (cam[:, 1] <= top + 0.3)
+        roof = ball & inside & (cam[:, 1] <= car["y"] - car["h"] + 0.3)
         ground = ball & ~footprint & (cam[:, 1] >= car["y"] - 0.15)
         out.append((np.hypot(car["x"], car["z"]), share * roof.sum(), share * (ball & inside).sum(),
                     share * ground.sum()))
