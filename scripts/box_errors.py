@@ -11,7 +11,9 @@ view. For the pairs it prints
     the labelled value and the spread of each (a size the network cannot see is predicted near the
     class mean: a spread far below the labels' and a correlation near 0);
   * the share of pairs whose 3D (and BEV) IoU reaches --iou, as predicted and with one group of
-    parameters replaced by the label's (the "oracle"): what each group costs at that IoU.
+    parameters replaced by the label's (the "oracle"): what each group costs at that IoU;
+  * the 3D share once every box's bottom and height are moved by the pairs' mean errors: how much of
+    what the label's bottom and height buy is a bias one constant would remove.
 
 Standard library only. Usage:
 
