@@ -126,10 +126,19 @@ pub fn latest_checkpoint(dir: &Path) -> Option<PathBuf> {
     step_checkpoints(dir).pop().map(|c| c.path)
 }
 
-/// Removes all but the newest `keep` `step-*` checkpoints.
-pub fn prune(dir: &Path, keep: usize) {
+/// Removes the `step-*` checkpoints in `dir` a run no longer needs: all but the newest `keep`
+/// taken at epoch ends (multiples of `steps_per_epoch`), and any taken between them (a stopped
+/// run's, to resume from) once a newer one exists. What survives a stop and a resume is then
+/// what an uninterrupted run leaves.
+pub fn prune(dir: &Path, keep: usize, steps_per_epoch: u64) {
     let steps = step_checkpoints(dir);
-    for c in steps.iter().take(steps.len().saturating_sub(keep)) {
+    let newest = steps.last().map(|c| c.step);
+    let (at_epoch_ends, between): (Vec<_>, Vec<_>) = steps
+        .into_iter()
+        .partition(|c| c.step.is_multiple_of(steps_per_epoch.max(1)));
+    let served = between.iter().filter(|c| Some(c.step) != newest);
+    let old = at_epoch_ends.iter().take(at_epoch_ends.len().saturating_sub(keep));
+    for c in served.chain(old) {
         let _ = std::fs::remove_dir_all(&c.path);
     }
 }
@@ -145,6 +154,23 @@ mod tests {
         cfg.model.d_fc0 = 8;
         cfg.model.d_offset = 4;
         cfg.model_config().init(&starnet_model::backend::default_device())
+    }
+
+    #[test]
+    fn a_stopped_runs_checkpoint_goes_once_a_newer_one_exists() {
+        let dir = tempfile::tempdir().unwrap();
+        let make = |s: u64| std::fs::create_dir_all(dir.path().join(format!("step-{s:08}"))).unwrap();
+        let left = || -> Vec<u64> { step_checkpoints(dir.path()).iter().map(|c| c.step).collect() };
+        // Epochs of 4 steps, two kept: a stop at step 10 keeps both epoch ends beside it.
+        for s in [4, 8, 10] {
+            make(s);
+        }
+        prune(dir.path(), 2, 4);
+        assert_eq!(left(), vec![4, 8, 10]);
+        // The resumed run's next epoch end: as if it had never stopped.
+        make(12);
+        prune(dir.path(), 2, 4);
+        assert_eq!(left(), vec![8, 12]);
     }
 
     #[test]

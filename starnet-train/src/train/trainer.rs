@@ -152,10 +152,11 @@ impl RunFolder {
         }
     }
 
-    /// Saves `trainer` as its `step-*` checkpoint and prunes to the newest `keep`.
-    pub fn save_step(&self, trainer: &Trainer, keep: usize) -> Result<()> {
+    /// Saves `trainer` as its `step-*` checkpoint and prunes to the newest `keep` taken at
+    /// epoch ends (epochs of `steps_per_epoch`), see [`prune`].
+    pub fn save_step(&self, trainer: &Trainer, keep: usize, steps_per_epoch: u64) -> Result<()> {
         trainer.save(&self.checkpoints, &format!("step-{:08}", trainer.state.step))?;
-        prune(&self.checkpoints, keep.max(1));
+        prune(&self.checkpoints, keep.max(1), steps_per_epoch);
         Ok(())
     }
 
@@ -341,7 +342,7 @@ fn finish(
     val_set: &KittiDataset,
 ) -> Result<TrainSummary> {
     if trainer.state.step < schedule.end {
-        run.save_step(&trainer, cfg.train.keep_last)?;
+        run.save_step(&trainer, cfg.train.keep_last, schedule.steps_per_epoch)?;
         note(format!(
             "stopped at step {}: checkpoint saved, continue with --resume",
             trainer.state.step
@@ -372,7 +373,7 @@ pub fn end_epoch(
         log.evaluation(step, report.headline())?;
         run.keep_best(trainer, report.headline(), OnTie::KeepOld)?;
     }
-    run.save_step(trainer, cfg.train.keep_last)
+    run.save_step(trainer, cfg.train.keep_last, schedule.steps_per_epoch)
 }
 
 fn summary(run: &RunFolder, trainer: &Trainer, end: RunEnd, eval: Option<EvalReport>) -> TrainSummary {
