@@ -26,7 +26,7 @@
 //!     let losses = trainer.step(&sweeps, schedule.lr(cfg.train.learning_rate, trainer.state.step))?;
 //!     println!("step {} loss {:.4}", trainer.state.step, losses.loss);
 //! }
-//! run.save_step(&trainer, 1)?;
+//! run.save_step(&trainer, 1, schedule.steps_per_epoch)?;
 //! let report = validate(&trainer.eval_model(), &cfg, &cfg.dataset(&cfg.data.val_split)?, None)?;
 //! println!("{report}");
 //! # Ok::<(), starnet_train::TrainError>(())
