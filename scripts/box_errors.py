@@ -25,6 +25,7 @@ import math
 import os
 import statistics
 
+
 def replace(*keys):
     """The prediction with `keys` taken from the label."""
     return lambda d, g: dict(d, **{k: g[k] for k in keys})
