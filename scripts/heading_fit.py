@@ -9,7 +9,8 @@ within 2 m).
 The returns are those inside the label's box grown by 0.3 m sideways, from 0.3 m above its bottom (not the road) to
 0.2 m above its top; cars with fewer than 30 are skipped. A rectangle has four-fold symmetry, so every difference
 is taken in (-45, 45] degrees. On a simulator's labels, exact by construction, the fit's median difference from the
-label says how far the fit itself is biased.
+label says how far the fit itself is biased. A last table gives the medians by how far the car is turned from
+end-on, signed so that a positive difference turns the first box nearer to end-on (towards the line of sight).
 
     python3 scripts/heading_fit.py --root ../shared/kitti-real-dev runs/v5/quickstart-s{0,1,2}/real-budget/c512_p64
     python3 scripts/heading_fit.py --root data/sim --split val --frames 200
