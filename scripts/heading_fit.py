@@ -26,25 +26,11 @@ import numpy as np
 
 from seed_agreement import best_match, median_of_known, visible_cars
 from box_errors import read_objects
+from waymo_official import read_calib  # rectified camera -> LiDAR
 
 STEP = math.radians(0.25)
 SEARCH = math.radians(20.0)
 BANDS = ((0, 15), (15, 30), (30, 45), (45, 91))
-
-
-def read_calib(path):
-    """The 4x4 transform from LiDAR to rectified camera coordinates (R0_rect @ Tr_velo_to_cam)."""
-    rows = {}
-    with open(path) as f:
-        for line in f:
-            if ":" in line:
-                key, values = line.split(":", 1)
-                rows[key.strip()] = [float(v) for v in values.split()]
-    r0 = np.eye(4)
-    r0[:3, :3] = np.array(rows["R0_rect"]).reshape(3, 3)
-    tr = np.eye(4)
-    tr[:3, :4] = np.array(rows["Tr_velo_to_cam"]).reshape(3, 4)
-    return r0 @ tr
 
 
 def to_lidar(cam_to_lidar, car):
@@ -98,7 +84,7 @@ def measure(root, ids, folders):
     rows = []
     for fid in ids:
         base = os.path.join(root, "training")
-        cam_to_lidar = np.linalg.inv(read_calib(os.path.join(base, "calib", f"{fid}.txt")))
+        cam_to_lidar = read_calib(os.path.join(base, "calib", f"{fid}.txt"))
         points = np.fromfile(os.path.join(base, "velodyne", f"{fid}.bin"), dtype=np.float32).reshape(-1, 4)
         dets = [read_objects(os.path.join(folder, f"{fid}.txt")) for folder in folders]
         for car in visible_cars(os.path.join(base, "label_2"), f"{fid}.txt"):

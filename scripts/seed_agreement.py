@@ -21,7 +21,7 @@ import math
 import os
 import statistics
 
-from box_errors import ious, read_objects
+from box_errors import ious, read_objects, wrap
 
 RANGES = ((0, 20), (20, 40), (40, math.inf))
 
@@ -130,7 +130,7 @@ def box_value(car, i, key):
     if box is None:
         return math.nan
     if key == "ry":
-        return (math.degrees(box["ry"] - car["ry"]) + 180.0) % 360.0 - 180.0
+        return math.degrees(wrap(box["ry"] - car["ry"]))
     return box[key]
 
 
