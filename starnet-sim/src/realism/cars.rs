@@ -18,6 +18,10 @@ pub const FIT_REACH_M: f32 = 0.2;
 const FIT_ABOVE_ROAD_M: f32 = 0.3;
 /// The returns of a car's end: those within this depth of the box's end, metres.
 pub const END_ZONE_M: f32 = 0.6;
+/// The end's returns within the box's width, at least this many, give its tilt.
+const END_TILT_MIN_POINTS: usize = 8;
+/// View-angle bin edges for the end's tilt, degrees from end-on.
+pub const VIEW_EDGES_DEG: [f32; 5] = [0.0, 15.0, 30.0, 45.0, 90.0];
 /// A box's fit is measured on cars with at least this many of the car's returns.
 pub const FIT_MIN_POINTS: usize = 30;
 /// The road beside a car: returns within this distance of its footprint (and outside the
@@ -38,6 +42,11 @@ pub struct BoxFit {
     /// [`END_ZONE_M`] of it: how rounded the end is (a flat face: about 0); `None` when no
     /// return lies there.
     pub end_depth: Option<f32>,
+    /// How far the line through those returns (the ones within the box's width) is turned
+    /// from the box's end, degrees, positive when it turns towards facing the sensor: an end
+    /// seen obliquely returns most where it faces the sensor, so the rounder its corners the more
+    /// it turns. `None` with fewer than 8 such returns.
+    pub end_tilt_deg: Option<f32>,
     /// The road beside the car above the box's bottom (the 15th percentile of the heights of
     /// the returns within 1.5 m of its footprint and 0.5 m of its bottom; kerbs and sidewalks
     /// raise the median on one side); `None` with fewer than 10 such returns.
@@ -100,19 +109,51 @@ pub fn box_fit(b: &Box3d, cloud: &[Point]) -> Option<BoxFit> {
     }
     let p99 = |v: Vec<f64>| quantile(&v, 0.99).unwrap_or(0.0) as f32;
     // The end the sensor sees: the sign of the sensor's position along the car's length.
-    let toward = b.to_local([0.0, 0.0, 0.0])[0].signum();
+    let sensor = b.to_local([0.0, 0.0, 0.0]);
+    let toward = sensor[0].signum();
+    let in_end_zone = |q: &&[f32; 3]| 0.5 * b.dx - toward * q[0] < END_ZONE_M;
     let end_zone: Vec<f64> = local
         .iter()
-        .map(|q| 0.5 * b.dx - toward * q[0])
-        .filter(|d| *d < END_ZONE_M)
-        .map(f64::from)
+        .filter(in_end_zone)
+        .map(|q| f64::from(0.5 * b.dx - toward * q[0]))
+        .collect();
+    let end_face: Vec<[f32; 2]> = local
+        .iter()
+        .filter(in_end_zone)
+        .filter(|q| q[1].abs() <= 0.5 * b.dy)
+        .map(|q| [q[0], q[1]])
         .collect();
     Some(BoxFit {
         top_gap: 0.5 * b.dz - p99(local.iter().map(|q| q[2] as f64).collect()),
         end_gap: 0.5 * b.dx - p99(local.iter().map(|q| (toward * q[0]) as f64).collect()),
         end_depth: quantile(&end_zone, 0.5).map(|d| d as f32),
+        end_tilt_deg: (end_face.len() >= END_TILT_MIN_POINTS)
+            .then(|| -toward * sensor[1].signum() * across_tilt(&end_face).to_degrees()),
         road_gap: road_level(b, cloud).map(|z| z - bottom),
     })
+}
+
+/// The angle from the box's across axis (`v`) to the principal direction of points `[u, v]`
+/// in the box's frame, radians in (−π/2, π/2], positive towards +u from +v.
+fn across_tilt(points: &[[f32; 2]]) -> f32 {
+    let n = points.len() as f32;
+    let mean = |i: usize| points.iter().map(|p| p[i]).sum::<f32>() / n;
+    let (mu, mv) = (mean(0), mean(1));
+    let (mut suu, mut svv, mut suv) = (0.0f32, 0.0f32, 0.0f32);
+    for p in points {
+        let (du, dv) = (p[0] - mu, p[1] - mv);
+        suu += du * du;
+        svv += dv * dv;
+        suv += du * dv;
+    }
+    // The principal axis lies at θ from +u; from +v towards +u that is π/2 − θ, folded.
+    let theta = 0.5 * (2.0 * suv).atan2(suu - svv);
+    let a = std::f32::consts::FRAC_PI_2 - theta;
+    if a > std::f32::consts::FRAC_PI_2 {
+        a - std::f32::consts::PI
+    } else {
+        a
+    }
 }
 
 /// The road's height beside box `b` ([`ROAD_RING_M`], [`ROAD_QUANTILE`]).
@@ -208,6 +249,40 @@ pub fn car_bins(cars: &[CarSample]) -> Vec<CarBin> {
         .collect()
 }
 
+/// The cars seen from one range of angles from end-on ([`VIEW_EDGES_DEG`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ViewBin {
+    /// Bin start, degrees.
+    pub lo: f32,
+    /// Bin end, degrees.
+    pub hi: f32,
+    /// Cars whose end's tilt was measured.
+    pub cars: usize,
+    /// Median over them of [`BoxFit::end_tilt_deg`], degrees.
+    pub end_tilt_deg: Option<f64>,
+}
+
+/// The bins of [`VIEW_EDGES_DEG`] over `cars`: how their ends' returns turn.
+pub fn view_bins(cars: &[CarSample]) -> Vec<ViewBin> {
+    VIEW_EDGES_DEG
+        .windows(2)
+        .map(|w| {
+            let last = w[1] == VIEW_EDGES_DEG[VIEW_EDGES_DEG.len() - 1];
+            let tilts: Vec<f64> = cars
+                .iter()
+                .filter(|c| c.view_deg >= w[0] && (c.view_deg < w[1] || last))
+                .filter_map(|c| c.fit.and_then(|f| f.end_tilt_deg).map(f64::from))
+                .collect();
+            ViewBin {
+                lo: w[0],
+                hi: w[1],
+                cars: tilts.len(),
+                end_tilt_deg: quantile(&tilts, 0.5),
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,6 +304,8 @@ mod tests {
         assert!(close(fit.end_gap, 0.05) && close(fit.top_gap, 0.06), "{fit:?}");
         // Every return lies on the face 5 cm behind the end.
         assert!(close(fit.end_depth.expect("returns at the end"), 0.05), "{fit:?}");
+        // A flat end face square to the box: no tilt.
+        assert!(fit.end_tilt_deg.expect("40 returns at the end").abs() < 1e-3, "{fit:?}");
         assert!(close(fit.road_gap.expect("12 road returns"), 0.05), "{fit:?}");
         // Turned end for end, the sensor still faces the same end: the same gap.
         let turned = Box3d {
@@ -239,6 +316,35 @@ mod tests {
         // Too few returns: no fit; no road beside it: no road gap.
         assert_eq!(box_fit(&car, &cloud[..29]), None);
         assert_eq!(box_fit(&car, &cloud[..40]).unwrap().road_gap, None);
+    }
+
+    #[test]
+    fn an_end_face_turned_towards_the_sensor_tilts_positive() {
+        // 10 m ahead and 3 m to the right, pointing away: the sensor (local u −10, v +3) sees the
+        // rear end (u = −2) and the left side (+v). Returns on a line through u = −1.9 whose
+        // normal, (−1, 0) for the end, is turned β towards +v: direction (sin β, cos β).
+        let car = Box3d::new(10.0, -3.0, -0.9, 4.0, 1.6, 1.6, 0.0);
+        for beta_deg in [10.0f32, -6.0] {
+            let (s, c) = beta_deg.to_radians().sin_cos();
+            let cloud: Vec<Point> = (0..40)
+                .map(|i| {
+                    let t = -0.7 + 1.4 * i as f32 / 39.0;
+                    [10.0 - 1.9 + t * s, -3.0 + t * c, -0.9, 0.2]
+                })
+                .collect();
+            let tilt = box_fit(&car, &cloud).and_then(|f| f.end_tilt_deg).expect("40 returns");
+            assert!((tilt - beta_deg).abs() < 1e-3, "{tilt} for {beta_deg}");
+            // Seen atan(3 / 10) = 16.7° from end-on: the 15–30° bin holds it.
+            let bins = view_bins(&[car_sample(&car, &cloud).expect("returns")]);
+            let counts: Vec<usize> = bins.iter().map(|b| b.cars).collect();
+            assert_eq!(counts, [0, 1, 0, 0]);
+            assert!((bins[1].end_tilt_deg.unwrap() - beta_deg as f64).abs() < 1e-3);
+            // Mirrored across the car's axis (the sensor on the other side), the same turn.
+            let mirrored = Box3d { y: 3.0, ..car };
+            let cloud: Vec<Point> = cloud.iter().map(|p| [p[0], -p[1], p[2], p[3]]).collect();
+            let tilt = box_fit(&mirrored, &cloud).and_then(|f| f.end_tilt_deg).unwrap();
+            assert!((tilt - beta_deg).abs() < 1e-3, "mirrored: {tilt} for {beta_deg}");
+        }
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! Two reports side by side: every cell reads `A / B`.
 
-use super::{CarBin, FIT_MIN_POINTS, RANGE_EDGES_M, RealismReport, ReflectanceBin};
+use super::{CarBin, END_ZONE_M, FIT_MIN_POINTS, RANGE_EDGES_M, RealismReport, ReflectanceBin};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -197,12 +197,34 @@ impl RealismComparison {
                 cell(|c| c.road_gap_m),
             )?;
         }
+        self.end_tilt_table(f)
+    }
+
+    fn end_tilt_table(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "\nThe line through a car's end's returns (within {END_ZONE_M} m of the box's end, within its width), turned towards facing the sensor, median degrees, A / B:\n"
+        )?;
+        writeln!(f, "| seen from end-on | cars measured | the end's tilt |")?;
+        writeln!(f, "|---|---|---|")?;
+        for (p, q) in self.a.views.iter().zip(&self.b.views) {
+            let side = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:+.1}"));
+            writeln!(
+                f,
+                "| {}–{}° | {} | {} / {} |",
+                p.lo,
+                p.hi,
+                pair(p.cars as f64, q.cars as f64, 0),
+                side(p.end_tilt_deg),
+                side(q.end_tilt_deg),
+            )?;
+        }
         Ok(())
     }
 }
 
-/// Markdown: the single figures, reflectance mean and zero share by range, cars by distance
-/// and how their boxes sit on their returns.
+/// Markdown: the single figures, reflectance mean and zero share by range, cars by distance,
+/// how their boxes sit on their returns, and how their ends' returns turn by view angle.
 impl fmt::Display for RealismComparison {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "A = {}\nB = {}\n", self.a.root.display(), self.b.root.display())?;

@@ -19,8 +19,8 @@ mod report;
 mod surfaces;
 
 pub use cars::{
-    BoxFit, CAR_EDGES_M, CarBin, CarSample, END_ZONE_M, FIT_MIN_POINTS, FIT_REACH_M, HIGH_POINT_M, box_fit, car_bins,
-    car_sample,
+    BoxFit, CAR_EDGES_M, CarBin, CarSample, END_ZONE_M, FIT_MIN_POINTS, FIT_REACH_M, HIGH_POINT_M, VIEW_EDGES_DEG,
+    ViewBin, box_fit, car_bins, car_sample, view_bins,
 };
 pub use clusters::{CAR_SIZED, CLUSTER_CELL_M, CLUSTER_MIN_POINTS, Cluster, clusters};
 pub use compare::{ComparisonRow, RealismComparison};

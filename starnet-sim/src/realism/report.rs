@@ -1,9 +1,9 @@
 //! The realism report of one folder: the statistics per frame and their summaries.
 
 use super::{
-    cars::CarBin, cars::CarSample, cars::car_bins, cars::car_sample, clusters::Cluster, clusters::clusters,
-    ground::GroundGrid, reflectance::ReflectanceBin, reflectance::ReflectanceSums, surfaces::LocalShape,
-    surfaces::sampled_shapes,
+    cars::CarBin, cars::CarSample, cars::ViewBin, cars::car_bins, cars::car_sample, cars::view_bins, clusters::Cluster,
+    clusters::clusters, ground::GroundGrid, reflectance::ReflectanceBin, reflectance::ReflectanceSums,
+    surfaces::LocalShape, surfaces::sampled_shapes,
 };
 use serde::{Deserialize, Serialize};
 use starnet_data::geometry::{GroundConfig, GroundModel};
@@ -129,6 +129,9 @@ pub struct RealismReport {
     pub reflectance: ReflectanceTable,
     /// Labelled cars by distance.
     pub cars: Vec<CarBin>,
+    /// Labelled cars by the angle they are seen from: how their ends' returns turn.
+    #[serde(default)]
+    pub views: Vec<ViewBin>,
     /// Background and ground shape.
     pub surfaces: SurfaceStats,
     /// Car-sized background clusters.
@@ -272,6 +275,7 @@ impl Sums {
                 background: self.background.bins(),
             },
             cars: car_bins(&self.car_samples),
+            views: view_bins(&self.car_samples),
             clusters: self.cluster_stats(frames),
             ground: GroundRiseStats {
                 rise_20m: Percentiles::of(&self.rise_20),
