@@ -111,26 +111,33 @@ pub fn box_fit(b: &Box3d, cloud: &[Point]) -> Option<BoxFit> {
     // The end the sensor sees: the sign of the sensor's position along the car's length.
     let sensor = b.to_local([0.0, 0.0, 0.0]);
     let toward = sensor[0].signum();
-    let in_end_zone = |q: &&[f32; 3]| 0.5 * b.dx - toward * q[0] < END_ZONE_M;
     let end_zone: Vec<f64> = local
         .iter()
-        .filter(in_end_zone)
-        .map(|q| f64::from(0.5 * b.dx - toward * q[0]))
-        .collect();
-    let end_face: Vec<[f32; 2]> = local
-        .iter()
-        .filter(in_end_zone)
-        .filter(|q| q[1].abs() <= 0.5 * b.dy)
-        .map(|q| [q[0], q[1]])
+        .map(|q| 0.5 * b.dx - toward * q[0])
+        .filter(|d| *d < END_ZONE_M)
+        .map(f64::from)
         .collect();
     Some(BoxFit {
         top_gap: 0.5 * b.dz - p99(local.iter().map(|q| q[2] as f64).collect()),
         end_gap: 0.5 * b.dx - p99(local.iter().map(|q| (toward * q[0]) as f64).collect()),
         end_depth: quantile(&end_zone, 0.5).map(|d| d as f32),
-        end_tilt_deg: (end_face.len() >= END_TILT_MIN_POINTS)
-            .then(|| -toward * sensor[1].signum() * across_tilt(&end_face).to_degrees()),
+        end_tilt_deg: end_tilt(b, &local, sensor),
         road_gap: road_level(b, cloud).map(|z| z - bottom),
     })
+}
+
+/// [`BoxFit::end_tilt_deg`] of box `b` from its returns `local` and the sensor, both in the
+/// box's frame.
+fn end_tilt(b: &Box3d, local: &[[f32; 3]], sensor: [f32; 3]) -> Option<f32> {
+    let toward = sensor[0].signum();
+    let end_face: Vec<[f32; 2]> = local
+        .iter()
+        .filter(|q| 0.5 * b.dx - toward * q[0] < END_ZONE_M && q[1].abs() <= 0.5 * b.dy)
+        .map(|q| [q[0], q[1]])
+        .collect();
+    // The line turned by α from the across axis faces the sensor's side when α has the sign
+    // opposite to `toward · side`.
+    (end_face.len() >= END_TILT_MIN_POINTS).then(|| -toward * sensor[1].signum() * across_tilt(&end_face).to_degrees())
 }
 
 /// The angle from the box's across axis (`v`) to the principal direction of points `[u, v]`
