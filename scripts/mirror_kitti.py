@@ -24,18 +24,8 @@ import sys
 import numpy as np
 
 from box_errors import read_objects
-from waymo_official import read_calib  # rectified camera -> LiDAR
-
-IMAGE = (1242, 375)
-
-
-def read_p2(path):
-    """The left colour camera's 3 x 4 projection."""
-    with open(path) as f:
-        for line in f:
-            if line.startswith("P2:"):
-                return np.array([float(x) for x in line.split()[1:13]]).reshape(3, 4)
-    raise ValueError(f"{path}: no P2 line")
+from onnx_detect import IMAGE_H, IMAGE_W
+from onnx_detect import read_calib  # (P2, LiDAR -> rectified camera)
 
 
 def image_box(p2, x, y, z, o, ry):
@@ -49,10 +39,10 @@ def image_box(p2, x, y, z, o, ry):
     if np.any(uvw[:, 2] <= 0.1):
         return None
     u, v = uvw[:, 0] / uvw[:, 2], uvw[:, 1] / uvw[:, 2]
-    return [max(0.0, u.min()), max(0.0, v.min()), min(IMAGE[0] - 1.0, u.max()), min(IMAGE[1] - 1.0, v.max())]
+    return [max(0.0, u.min()), max(0.0, v.min()), min(IMAGE_W - 1.0, u.max()), min(IMAGE_H - 1.0, v.max())]
 
 
-def mirrored_label(o, cam_to_lidar, p2):
+def mirrored_label(o, p2, lidar_to_cam, cam_to_lidar):
     """One label line of object `o` mirrored in the LiDAR frame."""
     if o["cls"] == "DontCare":
         left, top, right, bottom = o["box2d"]
@@ -63,7 +53,6 @@ def mirrored_label(o, cam_to_lidar, p2):
     centre = cam_to_lidar @ np.array([o["x"], o["y"] - o["h"] / 2, o["z"], 1.0])
     axis = cam_to_lidar[:3, :3] @ np.array([math.cos(o["ry"]), 0.0, -math.sin(o["ry"])])
     centre[1], axis[1] = -centre[1], -axis[1]
-    lidar_to_cam = np.linalg.inv(cam_to_lidar)
     x, y, z = (lidar_to_cam @ centre)[:3]
     y += o["h"] / 2
     a = lidar_to_cam[:3, :3] @ axis
@@ -81,8 +70,9 @@ def mirror_frame(src, dst, fid):
     pts.tofile(os.path.join(dst, "training/velodyne", fid + ".bin"))
     calib = os.path.join(src, "training/calib", fid + ".txt")
     shutil.copy(calib, os.path.join(dst, "training/calib", fid + ".txt"))
-    cam_to_lidar, p2 = read_calib(calib), read_p2(calib)
-    lines = [mirrored_label(o, cam_to_lidar, p2) for o in read_objects(os.path.join(src, "training/label_2", fid + ".txt"))]
+    p2, lidar_to_cam = read_calib(calib)
+    cam_to_lidar = np.linalg.inv(lidar_to_cam)
+    lines = [mirrored_label(o, p2, lidar_to_cam, cam_to_lidar) for o in read_objects(os.path.join(src, "training/label_2", fid + ".txt"))]
     with open(os.path.join(dst, "training/label_2", fid + ".txt"), "w") as f:
         f.write("".join(line + "\n" for line in lines))
 
