@@ -24,7 +24,9 @@ through onnxruntime and fails unless every output is within 1e-4 of Burn's.
 Writes `{id}.txt` in KITTI's result format (boxes whose projection reaches image 2).
 Centers are sampled with farthest point sampling in bird's-eye view from a seeded random start,
 as the Rust pipeline does; the exact centers (and so the boxes) differ from `starnet detect`'s,
-which uses its own random streams.
+which uses its own random streams. Each center is seen as model.json `center_views` says: with
+`alternate`, every second one sees its neighbourhood in the mirror and its boxes are mirrored back
+(`mirror_rule`), as `starnet detect` does.
 """
 
 import argparse
@@ -366,6 +368,28 @@ def sample_and_gather(points, pool, n, spec, rng, readable=None, rise=None):
     return centers, feats, mask
 
 
+def mirrored_centers(spec, n):
+    """Which of `n` centers, in sampling order, see their neighbourhood in the mirror (model.json
+    `center_views`; exports older than it have none: every center as seen)."""
+    rank = np.arange(n)
+    return {"as_seen": rank < 0, "alternate": rank % 2 == 1, "mirrored": rank >= 0}[spec.get("center_views", "as_seen")]
+
+
+def run_viewed(session, spec, centers, feats, mask):
+    """Boxes [N, 7] and scores [N, K] of one network call, each center seen as model.json
+    `center_views` says (`mirror_rule`): a mirrored center's y offsets and center negated, its
+    boxes mirrored back."""
+    mirrored = mirrored_centers(spec, len(centers))
+    feats, seen = feats.copy(), np.array(centers, np.float64)
+    feats[mirrored, :, 1] *= -1
+    seen[mirrored, 1] *= -1
+    boxes, scores = boxes_and_scores(spec, seen, session.run(None, {"points": feats, "mask": mask}))
+    back = np.repeat(mirrored, spec["anchors_per_center"])
+    boxes[back, 1] *= -1
+    boxes[back, 6] = wrap(-boxes[back, 6])
+    return boxes, scores
+
+
 def boxes_and_scores(spec, centers, outputs):
     """Decoded boxes [N, 7] and sigmoid scores [N, K] of one network call."""
     logits, residuals = outputs[0], outputs[1]
@@ -524,7 +548,7 @@ def main():
         rise = ground_rise(points, spec.get("ground"))
         pool = center_pool(points, spec["center_pool"], calib, rise)
         centers, feats, mask = sample_and_gather(points, pool, spec["num_centers"], spec, rng, rise=rise)
-        boxes, scores = boxes_and_scores(spec, centers, session.run(None, {"points": feats, "mask": mask}))
+        boxes, scores = run_viewed(session, spec, centers, feats, mask)
         num_centers = len(centers)
     lines = []
     for k, name in enumerate(spec["classes"]):

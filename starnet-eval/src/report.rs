@@ -3,7 +3,7 @@
 
 use crate::scorer::Scores;
 use serde::{Deserialize, Serialize};
-use starnet_data::sampling::CenterTarget;
+use starnet_data::sampling::{CenterTarget, CenterViews};
 
 /// What an evaluation found: the budget and its cost, and the scores.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -14,6 +14,9 @@ pub struct EvalReport {
     pub num_points: usize,
     /// Which sampled centers the model saw.
     pub target: CenterTarget,
+    /// Which of them saw their neighbourhood in the mirror (reports older than it: `as_seen`).
+    #[serde(default)]
+    pub views: CenterViews,
     /// Forward GFLOP per frame at this budget.
     pub gflop_per_frame: f64,
     /// Mean wall time per frame (preparation, forward, decoding), ms.
@@ -38,9 +41,14 @@ impl std::fmt::Display for EvalReport {
             CenterTarget::All => String::new(),
             t => format!(" (target {t})"),
         };
+        let views = match self.views {
+            CenterViews::AsSeen => "",
+            CenterViews::Alternate => ", every second center mirrored",
+            CenterViews::Mirrored => ", every center mirrored",
+        };
         writeln!(
             f,
-            "{} frames, {} centers{target} x {} points ({:.2} GFLOP/frame), latency {:.1} ms mean, {:.1} ms p95",
+            "{} frames, {} centers{target} x {} points ({:.2} GFLOP/frame{views}), latency {:.1} ms mean, {:.1} ms p95",
             self.scores.frames,
             self.num_centers,
             self.num_points,

@@ -10,7 +10,7 @@ use burn::prelude::*;
 use burn::tensor::TensorData;
 use starnet_data::Box3d;
 use starnet_data::kitti::ObjectClass;
-use starnet_data::sampling::{AnchorGrid, NUM_FEATURES, PreparedFrame};
+use starnet_data::sampling::{AnchorGrid, CenterViews, NUM_FEATURES, PreparedFrame, view_features};
 
 /// A batch ready for the model and the loss.
 #[derive(Debug, Clone)]
@@ -72,13 +72,22 @@ fn stacked<T, U: Copy>(items: &[&T], part: impl Fn(&T) -> &[U], f: impl Fn(U) ->
 
 /// Stacks frames (all with the same C and P) into model inputs on `device`.
 pub fn make_input(frames: &[&PreparedFrame], device: &Device) -> ModelInput {
+    make_viewed_input(frames, CenterViews::AsSeen, device)
+}
+
+/// [`make_input`] with each frame's centers seen as `views` says (a mirrored center's
+/// offsets mirrored; [`view_features`]). Decode its output with [`decode_viewed_detections`].
+pub fn make_viewed_input(frames: &[&PreparedFrame], views: CenterViews, device: &Device) -> ModelInput {
     let b = frames.len();
     let (c, p) = (
         frames[0].neighbourhoods.num_centers,
         frames[0].neighbourhoods.num_points,
     );
     let flag = |v: bool| v as u8 as f32;
-    let points = stacked(frames, |f| &f.neighbourhoods.features, |v| v);
+    let mut points = stacked(frames, |f| &f.neighbourhoods.features, |v| v);
+    for frame in points.chunks_exact_mut(c * p * NUM_FEATURES) {
+        view_features(frame, p, views);
+    }
     ModelInput {
         points: tensor(points, [b, c, p, NUM_FEATURES], device),
         mask: tensor(stacked(frames, |f| &f.neighbourhoods.mask, flag), [b, c, p], device),
@@ -139,6 +148,20 @@ pub fn decode_detections(
     grid: &AnchorGrid,
     cfg: &NmsConfig,
 ) -> Vec<Detection> {
+    decode_viewed_detections(out, i, frame, grid, cfg, CenterViews::AsSeen)
+}
+
+/// [`decode_detections`] of an output computed from [`make_viewed_input`]`(views)`: a mirrored
+/// center's residuals decode around the anchors of its mirror image, and its boxes are mirrored
+/// back, so every box is in `frame`'s own (as seen) LiDAR frame.
+pub fn decode_viewed_detections(
+    out: &ModelOutput,
+    i: usize,
+    frame: &PreparedFrame,
+    grid: &AnchorGrid,
+    cfg: &NmsConfig,
+    views: CenterViews,
+) -> Vec<Detection> {
     let [_, c, a, k] = out.cls_logits.dims();
     let logits: Vec<f32> = out
         .cls_logits
@@ -158,21 +181,22 @@ pub fn decode_detections(
         let v: Vec<f32> = d.clone().slice_dim(0, i..i + 1).into_data().iter::<f32>().collect();
         v.chunks_exact(2).map(|l| l[1] > l[0]).collect()
     });
-    let anchors = frame_anchors(frame, grid);
     let mut dets = Vec::new();
     for ci in (0..c).filter(|&ci| frame.centers.valid[ci]) {
-        for ai in 0..a {
+        let view = views.of(ci);
+        let anchors = grid.anchors_around(view.point(frame.centers.xyz[ci]));
+        for (ai, anchor) in anchors.iter().enumerate().take(a) {
             let n = ci * a + ai;
             for (ki, t) in cfg.per_class.iter().enumerate().take(k) {
                 let score = 1.0 / (1.0 + (-logits[n * k + ki]).exp());
                 if score >= t.score {
                     let r: [f32; 7] = res[n * 7..n * 7 + 7].try_into().expect("7 residuals");
-                    let mut b = decode(&r, &anchors[n]);
+                    let mut b = decode(&r, anchor);
                     if let Some(f) = &second_bin {
                         b.heading = with_direction(b.heading, usize::from(f[n]));
                     }
                     dets.push(Detection {
-                        b,
+                        b: view.boxed(&b),
                         class: t.class,
                         score,
                     });

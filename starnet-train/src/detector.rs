@@ -1,7 +1,8 @@
 //! [`Detector`]: a trained StarNet with everything inference needs — the anchor grid its outputs
-//! are laid out on, its classes, the center sampling and gathering at a [`Budget`], and the final
-//! NMS — so detecting is one call and needs no TOML file. Every command that runs a model
-//! (`eval`, `detect`, sequence and streaming evaluation) goes through it.
+//! are laid out on, its classes, the center sampling and gathering at a [`Budget`], the views its
+//! centers take ([`CenterViews`]), and the final NMS — so detecting is one call and needs no TOML
+//! file. Every command that runs a model (`eval`, `detect`, sequence and streaming evaluation)
+//! goes through it.
 //!
 //! A custom inference loop over a KITTI split (`no_run`: it needs a trained run):
 //!
@@ -26,12 +27,12 @@ use crate::config::ExperimentConfig;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use starnet_data::kitti::{Frame, ObjectClass};
-use starnet_data::sampling::{AnchorGrid, PipelineConfig, PreparedFrame, prepare_frame};
+use starnet_data::sampling::{AnchorGrid, CenterViews, PipelineConfig, PreparedFrame, prepare_frame};
 use starnet_data::seed::sub_seed;
-use starnet_model::batch::{decode_detections, make_input};
+use starnet_model::batch::{decode_viewed_detections, make_viewed_input};
 use starnet_model::flops::forward_gflop;
 use starnet_model::nms::{Detection, NmsConfig, nms};
-use starnet_model::nn::{ModelOutput, SliceState, StarNet, StarNetConfig};
+use starnet_model::nn::{ModelInput, ModelOutput, SliceState, StarNet, StarNetConfig};
 
 /// A streamed slice's boxes before NMS and the LSTM state the next slice starts from.
 pub struct SliceDetections {
@@ -54,6 +55,8 @@ pub struct Detector {
     pub classes: Vec<ObjectClass>,
     /// Center sampling and gathering, at this detector's budget.
     pub pipeline: PipelineConfig,
+    /// Which centers see their neighbourhood in the mirror (their boxes mirrored back).
+    pub views: CenterViews,
     /// Score thresholds and NMS of the final boxes.
     pub nms: NmsConfig,
 }
@@ -67,6 +70,7 @@ impl Detector {
             anchors: cfg.model.anchors.clone(),
             classes: cfg.data.classes.clone(),
             pipeline: Budget::of(cfg).pipeline(&cfg.pipeline),
+            views: cfg.eval.views,
             nms: cfg.nms_config(),
         }
     }
@@ -100,16 +104,21 @@ impl Detector {
         prepare_frame(frame, &self.pipeline, None, seeds, &mut ChaCha8Rng::seed_from_u64(seed))
     }
 
-    /// The network on prepared frames, one batch.
+    /// The network on prepared frames, one batch, each center seen as [`Self::views`] says.
     ///
     /// # Shapes
     /// - output: cls_logits `[B, C, A, K]`, box_residuals `[B, C, A, 7]`
     pub fn forward(&self, frames: &[&PreparedFrame]) -> ModelOutput {
-        self.model
-            .forward(make_input(frames, &starnet_model::backend::default_device()))
+        self.model.forward(self.input(frames))
     }
 
-    /// Frame `i` of `out` decoded: every box above `thresholds`' score thresholds, before NMS.
+    /// The model input of prepared frames under [`Self::views`].
+    fn input(&self, frames: &[&PreparedFrame]) -> ModelInput {
+        make_viewed_input(frames, self.views, &starnet_model::backend::default_device())
+    }
+
+    /// Frame `i` of [`Self::forward`]'s `out` decoded: every box above `thresholds`' score
+    /// thresholds, before NMS, in `frame`'s LiDAR frame whatever view its center took.
     pub fn raw_detections(
         &self,
         out: &ModelOutput,
@@ -117,7 +126,7 @@ impl Detector {
         frame: &PreparedFrame,
         thresholds: &NmsConfig,
     ) -> Vec<Detection> {
-        decode_detections(out, i, frame, &self.anchors, thresholds)
+        decode_viewed_detections(out, i, frame, &self.anchors, thresholds, self.views)
     }
 
     /// The final boxes of prepared frames, best first per frame.
@@ -149,8 +158,7 @@ impl Detector {
     /// One streamed slice through the network with the LSTM `state` of the sweep's earlier
     /// slices (`None` at the sweep's start): its boxes before NMS and the next state.
     pub fn detect_slice(&self, slice: &PreparedFrame, state: Option<SliceState>) -> SliceDetections {
-        let input = make_input(&[slice], &starnet_model::backend::default_device());
-        let (out, state) = self.model.forward_slices(input, 1, state);
+        let (out, state) = self.model.forward_slices(self.input(&[slice]), 1, state);
         SliceDetections {
             raw: self.raw_detections(&out, 0, slice, &self.nms),
             state,
@@ -167,7 +175,7 @@ pub fn frame_seed(seed: u64, i: usize) -> u64 {
 mod tests {
     use super::*;
     use starnet_data::kitti::Calib;
-    use starnet_data::sampling::CenterTarget;
+    use starnet_data::sampling::{CenterTarget, NUM_FEATURES};
     use starnet_sim::{SynthConfig, simulate_scene_frame};
 
     fn frame(scene: u64) -> Frame {
@@ -206,6 +214,59 @@ mod tests {
             ..b
         });
         assert!((at.gflop_per_frame() * 2.0 - all.gflop_per_frame()).abs() < 1e-9);
+    }
+
+    /// `frame` with only the centers of rank parity `parity` valid.
+    fn only(frame: &PreparedFrame, parity: usize) -> PreparedFrame {
+        let mut f = frame.clone();
+        for (rank, valid) in f.centers.valid.iter_mut().enumerate() {
+            *valid &= rank % 2 == parity;
+        }
+        f
+    }
+
+    #[test]
+    fn a_mirrored_center_finds_the_mirror_image_of_what_it_finds_in_the_mirrored_frame() {
+        let seen = detector();
+        let alternate = Detector {
+            views: CenterViews::Alternate,
+            ..seen.clone()
+        };
+        let f = seen.prepare(&frame(3), &[], 9);
+        // The frame's mirror image, by hand: every center's y and its points' y offsets negated.
+        let mut m = f.clone();
+        m.centers.xyz.iter_mut().for_each(|c| c[1] = -c[1]);
+        m.neighbourhoods
+            .features
+            .chunks_exact_mut(NUM_FEATURES)
+            .for_each(|p| p[1] = -p[1]);
+        let raw = |d: &Detector, g: &PreparedFrame| d.raw_detections(&d.forward(&[g]), 0, g, &d.nms);
+        // Even ranks as seen; odd ranks found in the mirrored frame, mirrored back.
+        let mut want = raw(&seen, &only(&f, 0));
+        want.extend(
+            raw(&seen, &only(&m, 1))
+                .into_iter()
+                .map(|d| Detection { b: d.b.mirrored(), ..d }),
+        );
+        let got = raw(&alternate, &f);
+        assert_eq!(got.len(), want.len());
+        // Every anchor of every valid center (32 centers of 100 car anchors).
+        assert!(got.len() > 1000, "{}", got.len());
+        let gap = |a: &Detection, b: &Detection| {
+            let (x, y) = (a.b.to_array(), b.b.to_array());
+            x.iter()
+                .zip(y)
+                .map(|(u, v)| (u - v).abs())
+                .fold((a.score - b.score).abs(), f32::max)
+        };
+        for g in &got {
+            let nearest = want.iter().map(|w| gap(g, w)).fold(f32::INFINITY, f32::min);
+            assert!(nearest < 1e-4, "{g:?}: nearest expected box {nearest} away");
+        }
+        // And the mirrored centers do see something else: half the boxes move.
+        let as_seen = raw(&seen, &f);
+        let moved = got.iter().zip(&as_seen).filter(|(a, b)| gap(a, b) > 1e-3).count();
+        assert!(moved > got.len() / 4, "{moved} of {} boxes moved", got.len());
     }
 
     #[test]

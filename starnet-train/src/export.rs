@@ -28,7 +28,9 @@ use serde::Serialize;
 use starnet_data::geometry::GroundConfig;
 use starnet_data::io::atomic_write;
 use starnet_data::kitti::ObjectClass;
-use starnet_data::sampling::{AnchorGrid, CenterPoolConfig, CenterZ, GatherMetric, NUM_FEATURES, Sampler, SliceConfig};
+use starnet_data::sampling::{
+    AnchorGrid, CenterPoolConfig, CenterViews, CenterZ, GatherMetric, NUM_FEATURES, Sampler, SliceConfig,
+};
 use starnet_model::export::{NamedTensor, named_tensors, write_safetensors};
 use starnet_model::nms::{Emission, Precedence};
 use starnet_model::nn::{ModelInput, SliceState, StarNet};
@@ -112,6 +114,11 @@ pub struct ModelSpec {
     pub radius: f32,
     /// What the radius bounds: `ball` (3D distance) or `cylinder` (distance in x, y).
     pub gather_metric: GatherMetric,
+    /// Which centers see their neighbourhood in the mirror (`as_seen`, `alternate`: ranks 1, 3,
+    /// 5, … in sampling order, or `mirrored`: all); see [`ModelSpec::mirror_rule`].
+    pub center_views: CenterViews,
+    /// How a mirrored center runs.
+    pub mirror_rule: &'static str,
     /// The streaming LSTM variant: how to run `model.onnx` slice by slice (`None`: every call is
     /// a whole sweep).
     pub streaming: Option<StreamingSpec>,
@@ -233,6 +240,10 @@ impl ModelSpec {
             num_points: cfg.eval.num_points,
             radius: cfg.pipeline.gather.radius,
             gather_metric: cfg.pipeline.gather.metric,
+            center_views: cfg.eval.views,
+            mirror_rule: "a mirrored center's input has its y offsets negated (points[c, :, 1] *= -1); its \
+                          anchors lie around (cx, -cy, cz); each decoded box (after the direction rule) is \
+                          mirrored back, y = -y and heading = wrap(-heading), before NMS",
             streaming: StreamingSpec::of(cfg),
         }
     }
@@ -450,6 +461,7 @@ mod tests {
             "the golden outputs hold the direction logits exactly when the model has them"
         );
         assert_eq!(spec["direction"].is_null(), !cfg.model.direction_classifier);
+        assert_eq!(spec["center_views"], serde_json::to_value(cfg.eval.views).unwrap());
     }
 
     #[test]

@@ -38,8 +38,7 @@ pub fn flip_y(scene: &mut Scene) {
         p[1] = -p[1];
     }
     for b in &mut scene.boxes {
-        b.y = -b.y;
-        b.heading = wrap_angle(-b.heading);
+        *b = b.mirrored();
     }
 }
 

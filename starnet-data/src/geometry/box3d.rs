@@ -62,6 +62,12 @@ impl Box3d {
         [self.x, self.y, self.z, self.dx, self.dy, self.dz, self.heading]
     }
 
+    /// The box mirrored left to right, y → −y (heading → −heading): what the sensor would see
+    /// of it in a mirrored world. Its own inverse.
+    pub fn mirrored(&self) -> Self {
+        Self::new(self.x, -self.y, self.z, self.dx, self.dy, self.dz, -self.heading)
+    }
+
     /// Footprint area `dx · dy`.
     pub fn bev_area(&self) -> f32 {
         self.dx * self.dy
@@ -229,6 +235,25 @@ mod tests {
         assert!((wrap_angle(-PI - 0.25) - (PI - 0.25)).abs() < 1e-6);
         assert!((wrap_angle(7.0 * PI) + PI).abs() < 1e-5);
         assert_eq!(wrap_angle(-PI), -PI);
+    }
+
+    #[test]
+    fn mirroring_negates_y_and_heading_and_undoes_itself() {
+        let b = Box3d::new(12.0, 3.5, -0.9, 4.2, 1.7, 1.5, 0.4);
+        let m = b.mirrored();
+        assert_eq!(m.to_array(), [12.0, -3.5, -0.9, 4.2, 1.7, 1.5, -0.4]);
+        assert_eq!(m.mirrored(), b);
+        // A box pointing along −x stays within [−π, π).
+        assert_eq!(Box3d::new(1.0, 1.0, 0.0, 1.0, 1.0, 1.0, -PI).mirrored().heading, -PI);
+        // The corners are the mirrored corners: front-right becomes front-left, and so on.
+        let (cb, cm) = (b.corners_bev(), m.corners_bev());
+        for k in 0..4 {
+            let (c, d) = (cb[k ^ 1], cm[k]);
+            assert!(
+                (c[0] - d[0]).abs() < 1e-5 && (c[1] + d[1]).abs() < 1e-5,
+                "{c:?} vs {d:?}"
+            );
+        }
     }
 
     #[test]

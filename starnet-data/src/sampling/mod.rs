@@ -1,6 +1,6 @@
 //! From a loaded frame to the model's input (ARCHITECTURE.md §4–§5): the center pool, center sampling
-//! (random, FPS, seeded FPS), neighbourhood gathering, the anchor layout around centers, and the
-//! azimuth slices of a streaming sweep.
+//! (random, FPS, seeded FPS), neighbourhood gathering, the anchor layout around centers, the
+//! azimuth slices of a streaming sweep, and the mirrored views of centers at inference.
 
 mod anchors;
 mod arrival;
@@ -12,6 +12,7 @@ mod pool;
 mod prepare;
 mod slices;
 mod target;
+mod views;
 
 pub use anchors::{AnchorGrid, AnchorPrior};
 pub use centers::{CenterZ, Centers, Sampler, continue_centers, level_centers, sample_centers};
@@ -26,3 +27,4 @@ pub use slices::{
     SliceCenters, SliceConfig, SliceContext, SweepSlicer, centers_per_slice, prepare_sweep, slice_points, slice_rng,
 };
 pub use target::CenterTarget;
+pub use views::{CenterViews, View, view_features};

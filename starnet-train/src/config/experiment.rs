@@ -6,7 +6,7 @@ use crate::{Result, TrainError};
 use serde::{Deserialize, Serialize};
 use starnet_data::augment::AugmentConfig;
 use starnet_data::kitti::{KittiDataset, LabelSource, Layout, MissingIntensity, ObjectClass};
-use starnet_data::sampling::{AnchorGrid, PipelineConfig, ReflectanceInput, SliceConfig};
+use starnet_data::sampling::{AnchorGrid, CenterViews, PipelineConfig, ReflectanceInput, SliceConfig};
 use starnet_model::assign::AssignConfig;
 use starnet_model::backend::DeviceChoice;
 use starnet_model::loss::LossConfig;
@@ -98,6 +98,7 @@ impl Default for ExperimentConfig {
                 num_centers: 768,
                 num_points: 64,
                 batch_size: 2,
+                views: CenterViews::AsSeen,
             },
             stream: StreamSection {
                 train_slices: Vec::new(),

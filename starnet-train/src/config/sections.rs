@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 use starnet_data::kitti::{LabelSource, ObjectClass};
-use starnet_data::sampling::{AnchorGrid, SliceConfig};
+use starnet_data::sampling::{AnchorGrid, CenterViews, SliceConfig};
 use starnet_model::backend::DeviceChoice;
 use starnet_model::nms::{Emission, Precedence};
 use starnet_model::nn::RowLayout;
@@ -166,7 +166,7 @@ pub struct TrainSection {
     pub run_root: PathBuf,
 }
 
-/// Evaluation budget.
+/// Evaluation budget, and how its centers look.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EvalSection {
@@ -176,4 +176,10 @@ pub struct EvalSection {
     pub num_points: usize,
     /// Frames per forward pass.
     pub batch_size: usize,
+    /// Which centers see their neighbourhood in the mirror at inference, their boxes mirrored
+    /// back (`as_seen`, `alternate` or `mirrored`; [`CenterViews`]): flip test-time
+    /// augmentation for the cost of one forward pass. Every command that runs the model (eval,
+    /// detect, export's `model.json`) follows it. Missing in configs older than it: `as_seen`.
+    #[serde(default)]
+    pub views: CenterViews,
 }

@@ -322,6 +322,16 @@ fn every_range_rule_rejects_a_bad_value_naming_its_key() {
         "stream.slicing.centers=\"spaced\"".to_string(),
         "stream.train_slices=[1, 8]".into(),
     ];
+    // The LSTM's slice summary averages over every center: no half-mirrored slices.
+    let lstm_mirrored = ["model.lstm_hidden=32".to_string(), "eval.views=\"alternate\"".into()];
+    match load_config(&ok, &lstm_mirrored) {
+        Err(TrainError::Config { key, message, .. }) => {
+            assert_eq!(key, "eval.views");
+            assert!(message.contains("as_seen"), "{message}");
+        }
+        other => panic!("expected mirrored centers under an LSTM to be refused, got {other:?}"),
+    }
+    assert!(load_config(&ok, &["eval.views=\"alternate\"".to_string()]).is_ok());
     match load_config(&ok, &spaced) {
         Err(TrainError::Config { key, message, .. }) => {
             assert_eq!(key, "stream.slicing.centers");

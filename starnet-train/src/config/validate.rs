@@ -4,7 +4,7 @@
 use super::experiment::ExperimentConfig;
 use super::sections::{DataSection, EvalSection, ModelSection, NmsSection, StreamSection, TrainSection};
 use crate::{Result, TrainError};
-use starnet_data::sampling::SliceCenters;
+use starnet_data::sampling::{CenterViews, SliceCenters};
 use starnet_data::settings::{Checked, InvalidSetting, at_least_one, non_negative, positive, width};
 use std::path::Path;
 
@@ -41,6 +41,14 @@ impl ExperimentConfig {
             return Err(InvalidSetting::new(
                 "pipeline.pool.camera_frustum",
                 "slices of a sweep cover 360°: set it to false (and data.labels = \"label_360\")",
+            ));
+        }
+        if self.model.lstm_hidden > 0 && self.eval.views != CenterViews::AsSeen {
+            // The LSTM sums up a slice by the mean of all its centers' features: a slice seen
+            // half in the mirror is not one it was trained on.
+            return Err(InvalidSetting::new(
+                "eval.views",
+                "the streaming LSTM summarises each slice over all its centers: use \"as_seen\"",
             ));
         }
         if self.stream.enabled() && self.pipeline.target != starnet_data::sampling::CenterTarget::All {

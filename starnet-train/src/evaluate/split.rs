@@ -20,6 +20,7 @@ pub fn eval_report(detector: &Detector, scores: Scores, latencies_ms: &[f64]) ->
         num_centers: budget.num_centers,
         num_points: budget.num_points,
         target: budget.target,
+        views: detector.views,
         gflop_per_frame: detector.gflop_per_frame(),
         latency_ms_mean: mean(latencies_ms),
         latency_ms_p95: quantile(latencies_ms, 0.95).unwrap_or(0.0),

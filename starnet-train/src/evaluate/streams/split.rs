@@ -7,7 +7,7 @@ use crate::stream::{NmsMode, StreamModel, stream_sweep};
 use serde::{Deserialize, Serialize};
 use starnet_data::events::Task;
 use starnet_data::kitti::{KittiDataset, LabelSource};
-use starnet_data::sampling::CenterTarget;
+use starnet_data::sampling::{CenterTarget, CenterViews};
 use starnet_data::seed::sub_seed;
 use starnet_data::summary::{mean, quantile};
 use starnet_eval::metrics::{AngleAp, WaymoClassAp, WaymoDetection, WaymoFrame, ap_by_angle, waymo_ap};
@@ -44,6 +44,9 @@ pub struct StreamReport {
     pub steps_per_sweep: f64,
     /// Points per center.
     pub num_points: usize,
+    /// Which centers saw their neighbourhood in the mirror (absent from older reports: `as_seen`).
+    #[serde(default)]
+    pub views: CenterViews,
     /// Forward GFLOP of one slice: the peak compute.
     pub gflop_per_slice: f64,
     /// Peak compute as a fraction of the whole sweep's in one forward.
@@ -133,6 +136,7 @@ impl StreamReport {
             num_centers: self.num_centers,
             num_points: self.num_points,
             target: CenterTarget::All,
+            views: self.views,
             gflop_per_frame: self.gflop_per_slice * self.slices as f64,
             latency_ms_mean: self.sweep_ms_mean,
             latency_ms_p95: self.sweep_ms_p95,
@@ -226,6 +230,7 @@ pub fn evaluate_stream(
         centers_per_slice: per,
         steps_per_sweep: mean(&steps),
         num_points: budget.num_points,
+        views: m.detector.views,
         gflop_per_slice: gflop,
         peak_fraction: gflop / full,
         slice_ms_median: quantile(&slice_ms, 0.5).unwrap_or(0.0),
