@@ -24,22 +24,18 @@ import sys
 import numpy as np
 
 from box_errors import read_objects
-from onnx_detect import IMAGE_H, IMAGE_W
+from onnx_detect import IMAGE_H, IMAGE_W, image_extent
 from onnx_detect import read_calib  # (P2, LiDAR -> rectified camera)
 
 
 def image_box(p2, x, y, z, o, ry):
     """The projection of the box's eight corners (bottom centre x, y, z; camera frame), clipped to the image; None when
     a corner lies behind the camera."""
-    c, s = math.cos(ry), math.sin(ry)
-    corners = [[x + c * du * o["l"] / 2 + s * dv * o["w"] / 2, y - dh * o["h"],
-                z - s * du * o["l"] / 2 + c * dv * o["w"] / 2, 1.0]
-               for du in (-1, 1) for dv in (-1, 1) for dh in (0, 1)]
-    uvw = (p2 @ np.array(corners).T).T
-    if np.any(uvw[:, 2] <= 0.1):
+    extent = image_extent(p2, x, y, z, o["l"], o["w"], o["h"], ry)
+    if extent is None:
         return None
-    u, v = uvw[:, 0] / uvw[:, 2], uvw[:, 1] / uvw[:, 2]
-    return [max(0.0, u.min()), max(0.0, v.min()), min(IMAGE_W - 1.0, u.max()), min(IMAGE_H - 1.0, v.max())]
+    left, top, right, bottom = extent
+    return [max(0.0, left), max(0.0, top), min(IMAGE_W - 1.0, right), min(IMAGE_H - 1.0, bottom)]
 
 
 def mirrored_label(o, p2, lidar_to_cam, cam_to_lidar):

@@ -257,12 +257,9 @@ def wrap(a):
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-def kitti_line(name, b, score, calib):
-    p2, velo_to_rect = calib
-    x, y, z = (velo_to_rect @ np.array([b[0], b[1], b[2], 1.0]))[:3]
-    h, w, l = b[5], b[4], b[3]
-    ry = -math.pi + (( -b[6] - math.pi / 2) + math.pi) % (2 * math.pi)
-    y += h / 2  # KITTI's location is the bottom centre, camera y down
+def image_extent(p2, x, y, z, l, w, h, ry):
+    """(left, top, right, bottom) of the image projection of a camera-frame box (KITTI's bottom centre x, y, z, its
+    length, width, height and ry), unclipped; None when a corner lies behind the camera."""
     c, s = math.cos(ry), math.sin(ry)
     pts = []
     for u in (l / 2, -l / 2):
@@ -274,8 +271,19 @@ def kitti_line(name, b, score, calib):
                     return None
                 pts.append(img[:2] / img[2])
     pts = np.array(pts)
-    left, top = pts.min(0)
-    right, bottom = pts.max(0)
+    return (*pts.min(0), *pts.max(0))
+
+
+def kitti_line(name, b, score, calib):
+    p2, velo_to_rect = calib
+    x, y, z = (velo_to_rect @ np.array([b[0], b[1], b[2], 1.0]))[:3]
+    h, w, l = b[5], b[4], b[3]
+    ry = -math.pi + (( -b[6] - math.pi / 2) + math.pi) % (2 * math.pi)
+    y += h / 2  # KITTI's location is the bottom centre, camera y down
+    extent = image_extent(p2, x, y, z, l, w, h, ry)
+    if extent is None:
+        return None
+    left, top, right, bottom = extent
     if right < 0 or bottom < 0 or left > IMAGE_W - 1 or top > IMAGE_H - 1:
         return None
     left, right = np.clip([left, right], 0, IMAGE_W - 1)

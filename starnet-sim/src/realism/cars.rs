@@ -2,6 +2,7 @@
 //! how high they sit, from which side the sensor sees it, and how its box sits on them (the
 //! annotator's margins: `sim::AnnotationMargin`).
 
+use super::axis::principal_angle;
 use serde::{Deserialize, Serialize};
 use starnet_data::summary::{mean, quantile};
 use starnet_data::{Box3d, Point};
@@ -143,18 +144,8 @@ fn end_tilt(b: &Box3d, local: &[[f32; 3]], sensor: [f32; 3]) -> Option<f32> {
 /// The angle from the box's across axis (`v`) to the principal direction of points `[u, v]`
 /// in the box's frame, radians in (−π/2, π/2], positive towards +u from +v.
 fn across_tilt(points: &[[f32; 2]]) -> f32 {
-    let n = points.len() as f32;
-    let mean = |i: usize| points.iter().map(|p| p[i]).sum::<f32>() / n;
-    let (mu, mv) = (mean(0), mean(1));
-    let (mut suu, mut svv, mut suv) = (0.0f32, 0.0f32, 0.0f32);
-    for p in points {
-        let (du, dv) = (p[0] - mu, p[1] - mv);
-        suu += du * du;
-        svv += dv * dv;
-        suv += du * dv;
-    }
     // The principal axis lies at θ from +u; from +v towards +u that is π/2 − θ, folded.
-    let theta = 0.5 * (2.0 * suv).atan2(suu - svv);
+    let theta = principal_angle(points.iter().copied());
     let a = std::f32::consts::FRAC_PI_2 - theta;
     if a > std::f32::consts::FRAC_PI_2 {
         a - std::f32::consts::PI

@@ -3,6 +3,7 @@
 //! view; occupied cells that touch (8-neighbours) form a cluster, whose extent is measured along
 //! its principal axes.
 
+use super::axis::principal_angle;
 use starnet_data::Point;
 use std::collections::HashMap;
 
@@ -88,12 +89,7 @@ fn measure(points: &[Point], idx: &[usize]) -> Cluster {
     let (mx, my) = idx
         .iter()
         .fold((0.0, 0.0), |(x, y), &i| (x + points[i][0] / n, y + points[i][1] / n));
-    let (mut sxx, mut sxy, mut syy) = (0.0f32, 0.0f32, 0.0f32);
-    for &i in idx {
-        let (dx, dy) = (points[i][0] - mx, points[i][1] - my);
-        (sxx, sxy, syy) = (sxx + dx * dx, sxy + dx * dy, syy + dy * dy);
-    }
-    let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let angle = principal_angle(idx.iter().map(|&i| [points[i][0], points[i][1]]));
     let (s, c) = angle.sin_cos();
     let extent = |f: &dyn Fn(&Point) -> f32| {
         let v = idx.iter().map(|&i| f(&points[i]));

@@ -10,6 +10,7 @@
 //! LiDAR frame, on any KITTI-layout folder: the simulator's, real KITTI, or a user's own sensor
 //! written in that layout.
 
+mod axis;
 mod cars;
 mod clusters;
 mod compare;
